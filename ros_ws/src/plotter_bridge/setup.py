@@ -1,0 +1,27 @@
+from setuptools import setup
+
+package_name = 'plotter_bridge'
+
+setup(
+    name=package_name,
+    version='0.1.0',
+    packages=[package_name],
+    data_files=[
+        ('share/ament_index/resource_index/packages', ['resource/' + package_name]),
+        ('share/' + package_name, ['package.xml']),
+    ],
+    install_requires=['setuptools'],
+    zip_safe=True,
+    maintainer='Plotter maintainers',
+    maintainer_email='plotter@example.com',
+    description='Serial bridge between ROS 2 and the plotter board, G-code streamer, mock board, CLI.',
+    license='MIT',
+    entry_points={
+        'console_scripts': [
+            'serial_bridge = plotter_bridge.serial_bridge_node:main',
+            'gcode_streamer = plotter_bridge.gcode_streamer_node:main',
+            'mock_board = plotter_bridge.mock_board_node:main',
+            'plotter = plotter_bridge.cli:main',
+        ],
+    },
+)

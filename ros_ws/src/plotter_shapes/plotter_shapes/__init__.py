@@ -1,0 +1,1 @@
+"""Shape geometry of the plotter and the DrawShape action server."""

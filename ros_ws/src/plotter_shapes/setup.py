@@ -1,0 +1,24 @@
+from setuptools import setup
+
+package_name = 'plotter_shapes'
+
+setup(
+    name=package_name,
+    version='0.1.0',
+    packages=[package_name],
+    data_files=[
+        ('share/ament_index/resource_index/packages', ['resource/' + package_name]),
+        ('share/' + package_name, ['package.xml']),
+    ],
+    install_requires=['setuptools'],
+    zip_safe=True,
+    maintainer='Plotter maintainers',
+    maintainer_email='plotter@example.com',
+    description='Shape geometry and the DrawShape action server of the plotter.',
+    license='MIT',
+    entry_points={
+        'console_scripts': [
+            'shape_server = plotter_shapes.shape_server_node:main',
+        ],
+    },
+)
