@@ -1,0 +1,109 @@
+"""Shared fixtures and set-up of the plotter test suite.
+
+- The pure-Python parts of the ROS packages (G-code parser, geometry, ...) are
+  importable straight from ros_ws/src, without ROS: see add_source_packages_to_path.
+- Tests that need ROS are marked ``@pytest.mark.ros`` and import rclpy and the
+  messages inside the test (or a fixture), so the other tests do not pay for
+  ROS start-up. They need the venv and the built workspace on the paths, which
+  scripts/test.sh arranges (it sources .venv/bin/activate and
+  ros_ws/install/setup.bash). Elsewhere they are skipped when the workspace is
+  not on the paths, unless PLOTTER_REQUIRE_ROS=1 (set by scripts/test.sh),
+  which turns that into a failure.
+- Each test session gets its own ROS domain on loopback, so that test runs of
+  several people on one machine do not see each other's topics.
+"""
+
+import functools
+import importlib.util
+import os
+import sys
+from pathlib import Path
+
+import pytest
+
+REPO_ROOT = Path(__file__).resolve().parent.parent
+ROS_SRC = REPO_ROOT / "ros_ws" / "src"
+SOURCE_PACKAGES = ("plotter_bridge", "plotter_shapes")
+
+
+def add_source_packages_to_path():
+    """Make the ament_python packages in ros_ws/src importable as plain packages.
+
+    Their source directories go first on sys.path, so ``import plotter_bridge``
+    imports the working-tree code even when an installed copy is also on the path.
+    """
+    for name in SOURCE_PACKAGES:
+        path = str(ROS_SRC / name)
+        if path in sys.path:
+            sys.path.remove(path)
+        sys.path.insert(0, path)
+
+
+add_source_packages_to_path()
+
+
+def _setup_ros_environment():
+    # Own DDS domain per test session (unless one was chosen), discovery on
+    # loopback only. Set before rclpy is imported, inherited by subprocesses.
+    os.environ.setdefault("ROS_DOMAIN_ID", str(1 + os.getpid() % 100))
+    os.environ.setdefault("ROS_AUTOMATIC_DISCOVERY_RANGE", "LOCALHOST")
+
+
+_setup_ros_environment()
+
+
+@functools.lru_cache(maxsize=None)
+def ros_available():
+    """True when rclpy and the built plotter_interfaces can be imported."""
+    try:
+        return (importlib.util.find_spec("rclpy") is not None
+                and importlib.util.find_spec("plotter_interfaces") is not None)
+    except (ImportError, ValueError):
+        return False
+
+
+def pytest_runtest_setup(item):
+    if item.get_closest_marker("ros") is None or ros_available():
+        return
+    reason = ("ROS workspace not on the paths: run scripts/test.sh, or source "
+              ".venv/bin/activate and ros_ws/install/setup.bash")
+    if os.environ.get("PLOTTER_REQUIRE_ROS") == "1":
+        pytest.fail(reason, pytrace=False)
+    pytest.skip(reason)
+
+
+@pytest.fixture(scope="session")
+def repo_root():
+    """Path of the repository root."""
+    return REPO_ROOT
+
+
+@pytest.fixture(scope="session")
+def ros_ws(repo_root):
+    """Path of the colcon workspace (ros_ws/)."""
+    return repo_root / "ros_ws"
+
+
+@pytest.fixture
+def ros_env():
+    """Environment for subprocesses that run ROS nodes (a copy of os.environ)."""
+    return dict(os.environ)
+
+
+@pytest.fixture
+def rclpy_context():
+    """A fresh, initialised rclpy Context for one test; shut down afterwards.
+
+    Create nodes with ``rclpy.create_node(name, context=rclpy_context)`` and
+    executors with ``SingleThreadedExecutor(context=rclpy_context)``.
+    """
+    import rclpy
+    from rclpy.context import Context
+
+    context = Context()
+    rclpy.init(context=context)
+    try:
+        yield context
+    finally:
+        if context.ok():
+            rclpy.shutdown(context=context)
