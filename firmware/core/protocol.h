@@ -1,0 +1,17 @@
+/* protocol.h - the command line protocol of firmware/PROTOCOL.md: assembles
+ * received bytes into lines, checks sequence numbers and checksums, executes
+ * commands, and answers with ok / err / rs / status reports. */
+#ifndef PROTOCOL_H
+#define PROTOCOL_H
+
+#include "config.h"
+
+extern uint8_t alarm_code;     /* 0 = no alarm; see ALARM_* */
+#define ALARM_ESTOP 1
+#define ALARM_LIMIT 2
+
+void protocol_init(void);      /* print the start-up banner */
+void protocol_poll(void);      /* one pass of the main loop */
+void protocol_alarm(uint8_t code);
+
+#endif

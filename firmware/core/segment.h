@@ -1,0 +1,30 @@
+/* segment.h - one queued command as the step interrupt consumes it.
+ * The planner fills every field outside the interrupt (all divisions and
+ * square roots happen there); the interrupt only copies and steps. */
+#ifndef SEGMENT_H
+#define SEGMENT_H
+
+#include <stdint.h>
+
+#define SEG_LINE    1
+#define SEG_ARC_CW  2
+#define SEG_ARC_CCW 3
+#define SEG_PEN     4   /* set or clear the pen bit, then dwell `steps` ms */
+#define SEG_DWELL   5   /* wait `steps` ms */
+
+typedef struct {
+    uint8_t  kind;
+    uint8_t  dirs;          /* line: BIT_X_DIR|BIT_Y_DIR; pen: BIT_PEN or 0 */
+    uint16_t seq;           /* sequence number of the command (0 when typed) */
+    int16_t  a, b;          /* line: |dx|, |dy|; arc: start relative to the centre */
+    int16_t  c, d;          /* arc: end relative to the centre */
+    uint16_t steps;         /* line: exact; arc: estimate; pen/dwell: milliseconds */
+    uint8_t  quadrant;      /* arc: quadrant of the start, 0..3 = I..IV */
+    uint8_t  crossings;     /* arc: axis crossings before the final quadrant */
+    uint8_t  cruise;        /* ramp level to accelerate to */
+    uint8_t  exit;          /* ramp level to leave the segment at */
+    uint16_t cruise_period; /* machine cycles per step at the commanded feed */
+    uint16_t exit_brake;    /* ramp prefix steps below the exit level, scaled */
+} segment_t;
+
+#endif

@@ -1,0 +1,9 @@
+/* serial.c - storage of the receive ring shared by the UART interrupt and the
+ * protocol (see serial.h). */
+#include "serial.h"
+
+XDATA uint8_t rx_buf[RX_SIZE];
+FAST volatile uint8_t rx_head, rx_tail;
+FAST volatile uint8_t rx_flush_to;
+FAST volatile uint8_t rx_overflow;
+FAST volatile uint8_t rt_flags;

@@ -1,0 +1,147 @@
+/* core_api.c - the firmware core as a host shared library, for tests and the
+ * mock board.  The caller plays the hardware: it feeds received bytes, calls
+ * the main loop, and fires the step interrupt when the timer says so. */
+#include <string.h>
+#include "../../core/config.h"
+#include "../../core/hal.h"
+#include "../../core/stepper.h"
+#include "../../core/planner.h"
+#include "../../core/serial.h"
+#include "../../core/protocol.h"
+
+uint16_t host_period;
+uint8_t host_timer_on;
+uint8_t host_port;
+
+#define TX_CAP 8192
+static uint8_t tx[TX_CAP];
+static uint32_t tx_len;
+
+#define SEQ_LOG_CAP 65536
+static uint16_t seq_log[SEQ_LOG_CAP];
+static uint32_t seq_log_len;
+
+void hal_putc(uint8_t c)
+{
+    if (tx_len < TX_CAP) {
+        tx[tx_len++] = c;
+    }
+}
+
+void host_segment_started(uint16_t seq)
+{
+    if (seq_log_len < SEQ_LOG_CAP) {
+        seq_log[seq_log_len++] = seq;
+    }
+}
+
+/* Power-on: everything as the 8051's start-up code leaves it, then main()'s set-up. */
+void core_reset(void)
+{
+    host_period = 0;
+    host_timer_on = 0;
+    host_port = 0;
+    tx_len = 0;
+    seq_log_len = 0;
+    q_head = q_tail = 0;
+    rx_head = rx_tail = rx_flush_to = 0;
+    rx_overflow = 0;
+    rt_flags = 0;
+    st_accel = 1;
+    st_shape = 0;
+    default_feed = 2000;
+    pen_delay_ms = 150;
+    stepper_init();
+    protocol_init();
+}
+
+void core_rx(const uint8_t *data, uint32_t n)
+{
+    uint32_t k;
+    for (k = 0; k < n; k++) {
+        uint8_t c = data[k];
+        SERIAL_RX_BYTE(c);
+    }
+}
+
+uint32_t core_rx_free(void) { return RX_SIZE - (uint8_t)(rx_head - rx_tail); }
+
+void core_poll(void) { protocol_poll(); }
+
+/* Fire the step interrupt once; 1 if it emitted a step. */
+int core_tick(void)
+{
+    int32_t x = pos_x, y = pos_y;
+    stepper_isr();
+    return (pos_x != x || pos_y != y) ? 1 : 0;
+}
+
+int core_timer_on(void) { return host_timer_on; }
+unsigned core_period(void) { return host_period; }
+int32_t core_pos_x(void) { return pos_x; }
+int32_t core_pos_y(void) { return pos_y; }
+int core_pen(void) { return (host_port & BIT_PEN) ? 1 : 0; }
+int core_port(void) { return host_port; }
+int core_running(void) { return st_running; }
+int core_level(void) { return st_level; }
+unsigned core_queue_free(void) { return QUEUE_FREE(); }
+unsigned core_underruns(void) { return st_underruns; }
+int core_alarm(void) { return alarm_code; }
+void core_set_alarm(int code) { protocol_alarm((uint8_t)code); }
+
+uint32_t core_tx_read(uint8_t *out, uint32_t cap)
+{
+    uint32_t n = tx_len < cap ? tx_len : cap;
+    memcpy(out, tx, n);
+    memmove(tx, tx + n, tx_len - n);
+    tx_len -= n;
+    return n;
+}
+
+uint32_t core_seq_log(uint16_t *out, uint32_t cap)
+{
+    uint32_t n = seq_log_len < cap ? seq_log_len : cap;
+    memcpy(out, seq_log, n * sizeof(uint16_t));
+    return n;
+}
+
+/* Direct planner access for exhaustive interpolation tests. */
+int core_plan_line(int dx, int dy, unsigned feed, unsigned exit_rate)
+{
+    return planner_line((int16_t)dx, (int16_t)dy, (uint16_t)feed, (uint16_t)exit_rate, 0);
+}
+
+int core_plan_arc(int dx, int dy, int i, int j, int cw, unsigned feed, unsigned exit_rate)
+{
+    return planner_arc((int16_t)dx, (int16_t)dy, (int16_t)i, (int16_t)j, (uint8_t)cw,
+                       (uint16_t)feed, (uint16_t)exit_rate, 0);
+}
+
+/* Run queued motion to the end in simulated time, recording every step.
+ * out receives (dx, dy, period) triples per step: the move of each axis in
+ * -1/0/+1 and the cycles since the previous step.  Returns the step count,
+ * or -1 if cap was too small. */
+int32_t core_run_steps(int32_t *out, int32_t cap)
+{
+    int32_t n = 0;
+    uint32_t since = 0;
+    if (!st_running) {
+        stepper_start();
+    }
+    while (host_timer_on) {
+        int32_t x = pos_x, y = pos_y;
+        since += host_period;
+        stepper_isr();
+        if (pos_x != x || pos_y != y) {
+            if (n >= cap) {
+                return -1;
+            }
+            out[3 * n] = pos_x - x;
+            out[3 * n + 1] = pos_y - y;
+            out[3 * n + 2] = (int32_t)since;
+            since = 0;
+            n++;
+        }
+    }
+    return n;
+}

@@ -1,0 +1,27 @@
+/* hal_host.h - the core's hardware layer on a PC: the step timer becomes a
+ * "next tick after N machine cycles" value that the caller (tests, the mock
+ * board) honours in simulated or real time; the port becomes a variable. */
+#ifndef HAL_HOST_H
+#define HAL_HOST_H
+
+#include <stdint.h>
+
+#define FAST
+#define XDATA
+#define HAL_PORT_IDLE 0x00
+
+extern uint16_t host_period;      /* cycles until the next step interrupt */
+extern uint8_t host_timer_on;
+extern uint8_t host_port;
+void host_segment_started(uint16_t seq);
+
+#define STEPPER_ISR void stepper_isr(void)
+#define HAL_TIMER_ADVANCE(p) (host_period = (p))
+#define HAL_TIMER_START(p) (host_period = (p), host_timer_on = 1)
+#define HAL_TIMER_HALT() (host_timer_on = 0)
+#define HAL_PORT_OUT(v) (host_port = (uint8_t)(v))
+#define HAL_SEGMENT_STARTED(s) host_segment_started(s)
+#define HAL_CRITICAL_BEGIN()
+#define HAL_CRITICAL_END()
+
+#endif
