@@ -19,6 +19,9 @@ cd "$ROOT"
 VENV="$ROOT/.venv"
 WS="$ROOT/ros_ws"
 PYTHON="${PYTHON:-python3}"
+# One set-up at a time in this tree (several people or test runs may start it at once).
+exec 9<"${BASH_SOURCE[0]}"
+flock 9
 START=$SECONDS
 
 log() { printf '[setup %3ds] %s\n' "$((SECONDS - START))" "$*"; }
@@ -110,7 +113,7 @@ if [ ! -f "$WS/install/setup.bash" ] || [ "$(cat "$BUILD_STAMP" 2>/dev/null)" !=
         done
         export PATH="$VENV/bin:$PATH" VIRTUAL_ENV="$VENV"
         export AMENT_PREFIX_PATH="$VENV" CMAKE_PREFIX_PATH="$VENV" COLCON_PREFIX_PATH="$VENV"
-        unset PYTHONPATH
+        unset PYTHONPATH PYTHONDONTWRITEBYTECODE
         "$VENV/bin/colcon" --log-base log build \
             --base-paths src --build-base build --install-base install \
             --event-handlers console_cohesion- console_start_end- console_package_list- summary+ status- \
