@@ -11,9 +11,9 @@
 #define CYCLES_PER_S  921600UL
 #define DWELL_PERIOD  922u          /* one millisecond in machine cycles */
 
-#define QUEUE_SIZE  8               /* motion segments buffered ahead (power of two) */
+#define QUEUE_SIZE  6               /* motion segments buffered ahead */
 #define RX_SIZE     64              /* UART receive ring (power of two) */
-#define TX_SIZE     32              /* UART transmit ring (power of two) */
+#define TX_SIZE     16              /* UART transmit ring (power of two) */
 #define LINE_MAX    48              /* longest accepted command line, without newline */
 
 /* Real-time bytes acted on by the receive interrupt, never queued. */

@@ -1,13 +1,14 @@
 /* hal.h - selects the hardware layer: the 8051 board under SDCC, the host
  * simulation under gcc.  The core only uses the macros listed here:
- *   FAST, XDATA           storage classes (direct internal RAM / external RAM)
+ *   FAST, IDATA, XDATA    storage classes (direct / indirect internal RAM, external RAM)
  *   STEPPER_ISR           definition line of the step timer interrupt
  *   HAL_TIMER_ADVANCE(p)  schedule the next step interrupt p machine cycles after this one
  *   HAL_TIMER_START(p)    start the step timer, first interrupt after p cycles
  *   HAL_TIMER_HALT()      stop the step timer at once and drop a pending tick
  *   HAL_PORT_OUT(v)       write the step/direction/pen port (a byte-wide write)
  *   HAL_SEGMENT_STARTED(s) a queued command with sequence number s begins
- *   HAL_CRITICAL_BEGIN/END mask interrupts around a multi-byte read */
+ *   HAL_CRITICAL_BEGIN/END mask interrupts around a multi-byte read
+ *   INLINE                a function expanded where used, with no separate copy */
 #ifndef HAL_H
 #define HAL_H
 

@@ -7,7 +7,7 @@
 #include "stepper.h"
 #include "ramp.h"
 
-XDATA segment_t queue[QUEUE_SIZE];
+XDATA segment_t queue[QUEUE_SLOTS];
 FAST volatile uint8_t q_head, q_tail;
 
 uint16_t default_feed = 2000;
@@ -51,6 +51,12 @@ uint8_t planner_level_for_rate(uint16_t rate)
     return lo;
 }
 
+uint8_t queue_used(void)
+{
+    uint8_t tail = q_tail;          /* read once: the step interrupt moves it */
+    return (uint8_t)(q_head >= tail ? q_head - tail : q_head + QUEUE_SLOTS - tail);
+}
+
 void planner_flush(void)
 {
     q_tail = q_head;
@@ -58,7 +64,7 @@ void planner_flush(void)
 
 static XDATA segment_t *next_slot(void)
 {
-    return &queue[q_head & (QUEUE_SIZE - 1)];
+    return &queue[q_head];
 }
 
 /* Ramp fields shared by lines and arcs. */
@@ -99,106 +105,102 @@ uint8_t planner_line(int16_t dx, int16_t dy, uint16_t feed, uint16_t exit_rate, 
     s->b = dy;
     s->steps = (uint16_t)dx + (uint16_t)dy;
     plan_speeds(s, feed, exit_rate);
-    q_head++;
+    q_head = QUEUE_NEXT(q_head);
     return E_OK;
 }
 
 /* Quadrant 0..3 (I..IV) of a point relative to the centre.  A point on an
- * axis belongs to the quadrant the arc is about to sweep through. */
-static uint8_t quadrant_of(int16_t x, int16_t y, uint8_t cw)
+ * axis belongs to the quadrant the arc is about to sweep through, so the
+ * point where an arc crosses an axis already counts as the next quadrant.
+ * The centre itself has no quadrant: 4. */
+static uint8_t arc_quadrant(int16_t x, int16_t y, uint8_t cw)
 {
     if (cw) {
         if (x >= 0 && y > 0) return 0;
         if (x < 0 && y >= 0) return 1;
         if (x <= 0 && y < 0) return 2;
-        return 3;
+        if (x > 0) return 3;
+    } else {
+        if (x > 0 && y >= 0) return 0;
+        if (x <= 0 && y > 0) return 1;
+        if (x < 0 && y <= 0) return 2;
+        if (y < 0) return 3;
     }
-    if (x > 0 && y >= 0) return 0;
-    if (x <= 0 && y > 0) return 1;
-    if (x < 0 && y <= 0) return 2;
-    return 3;
+    return 4;
 }
 
-/* Where the arc enters (first = 1) or leaves (first = 0) quadrant q, on a circle of radius r. */
-static void quadrant_end(uint8_t q, uint8_t cw, uint8_t first, int16_t r, int16_t *x, int16_t *y)
+/* How many quadrants the sweep advanced going from quadrant a to quadrant b. */
+#define ARC_ADVANCE(a, b, cw) ((uint8_t)((cw) ? ((a) - (b)) : ((b) - (a))) & 3)
+
+/* Steps of the staircase along one quadrant from half-axis k (+X, +Y, -X, -Y)
+ * to the point (x, y), on a circle of radius r: it moves monotonically. */
+static uint16_t steps_from_axis(uint8_t k, int16_t r, int16_t x, int16_t y)
 {
-    /* Axis points in counter-clockwise order: +X, +Y, -X, -Y. Quadrant q spans q..q+1. */
-    uint8_t k = (uint8_t)(q + ((cw ^ first) ? 0 : 1)) & 3;
-    *x = (k == 0) ? r : (k == 2) ? -r : 0;
-    *y = (k == 1) ? r : (k == 3) ? -r : 0;
+    int16_t ax = (k == 0) ? r : (k == 2) ? -r : 0;
+    int16_t ay = (k == 1) ? r : (k == 3) ? -r : 0;
+    return (uint16_t)((ax > x ? ax - x : x - ax) + (ay > y ? ay - y : y - ay));
 }
 
-static uint16_t manhattan(int16_t x0, int16_t y0, int16_t x1, int16_t y1)
+static int32_t sq(int16_t v)
 {
-    return (uint16_t)((x0 > x1 ? x0 - x1 : x1 - x0) + (y0 > y1 ? y0 - y1 : y1 - y0));
+    return (int32_t)v * v;
 }
 
 uint8_t planner_arc(int16_t dx, int16_t dy, int16_t i, int16_t j, uint8_t clockwise,
                     uint16_t feed, uint16_t exit_rate, uint16_t seq)
 {
     XDATA segment_t *s;
-    int32_t xs = -(int32_t)i, ys = -(int32_t)j;
-    int32_t xe = (int32_t)dx - i, ye = (int32_t)dy - j;
-    uint32_t r2, e2, diff;
+    int16_t xs = -i, ys = -j, xe, ye;      /* start and end relative to the centre */
+    int32_t t;
     uint16_t r;
     uint8_t qs, qe, cross;
-    int32_t turn;
     uint32_t steps;
-    int16_t ax, ay, bx, by;
 
-    if (xe > 32767 || xe < -32767 || ye > 32767 || ye < -32767 ||
-        xs > 32767 || xs < -32767 || ys > 32767 || ys < -32767) {
-        return E_RANGE;
-    }
-    r2 = (uint32_t)(xs * xs) + (uint32_t)(ys * ys);
-    e2 = (uint32_t)(xe * xe) + (uint32_t)(ye * ye);
-    r = isqrt32(r2);
-    if (r == 0) {
-        return E_ARC;               /* the centre is the start point */
-    }
-    if (r > 32767) {
-        return E_RANGE;
-    }
-    diff = e2 > r2 ? e2 - r2 : r2 - e2;
-    if (diff > 2UL * r + 1) {
-        return E_ARC;               /* end more than a step off the circle */
-    }
-    if (QUEUE_FREE() == 0) {
-        return E_QUEUEFULL;
-    }
+    t = (int32_t)dx - i;
+    if (t > 32767 || t < -32767) return E_RANGE;
+    xe = (int16_t)t;
+    t = (int32_t)dy - j;
+    if (t > 32767 || t < -32767) return E_RANGE;
+    ye = (int16_t)t;
+    t = sq(xs) + sq(ys);                    /* R^2, at most 2 * 32767^2 */
+    r = isqrt32((uint32_t)t);
+    if (r == 0) return E_ARC;               /* the centre is the start point */
+    if (r > 32767) return E_RANGE;
+    t -= sq(xe) + sq(ye);
+    if (t < 0) t = -t;
+    if ((uint32_t)t > 2UL * r + 1) return E_ARC;   /* end more than a step off the circle */
+    if (QUEUE_FREE() == 0) return E_QUEUEFULL;
+
     clockwise = clockwise ? 1 : 0;
-    qs = quadrant_of((int16_t)xs, (int16_t)ys, clockwise);
-    qe = quadrant_of((int16_t)xe, (int16_t)ye, clockwise);
-    cross = (uint8_t)(clockwise ? (qs - qe) : (qe - qs)) & 3;
+    qs = arc_quadrant(xs, ys, clockwise);
+    qe = arc_quadrant(xe, ye, clockwise);
+    cross = ARC_ADVANCE(qs, qe, clockwise);
     if (cross == 0) {
         /* Same quadrant: ahead of the start, or all the way round. */
-        turn = xs * ye - ys * xe;
-        if (clockwise) turn = -turn;
-        if (turn < 0 || (turn == 0 && xs == xe && ys == ye)) {
-            cross = 4;
-        }
+        t = (int32_t)xs * ye - (int32_t)ys * xe;
+        if (clockwise) t = -t;
+        if (t < 0 || (t == 0 && xs == xe && ys == ye)) cross = 4;
     }
     if (cross == 0) {
-        steps = manhattan((int16_t)xs, (int16_t)ys, (int16_t)xe, (int16_t)ye);
+        steps = (uint16_t)((xs > xe ? xs - xe : xe - xs) + (ys > ye ? ys - ye : ye - ys));
     } else {
-        quadrant_end(qs, clockwise, 0, (int16_t)r, &ax, &ay);
-        quadrant_end(qe, clockwise, 1, (int16_t)r, &bx, &by);
-        steps = (uint32_t)manhattan((int16_t)xs, (int16_t)ys, ax, ay)
+        /* Quadrant q runs from half-axis q to q+1 counter-clockwise, q+1 to q clockwise. */
+        steps = steps_from_axis(clockwise ? qs : (qs + 1) & 3, (int16_t)r, xs, ys)
               + (uint32_t)(cross - 1) * 2u * r
-              + manhattan(bx, by, (int16_t)xe, (int16_t)ye);
+              + steps_from_axis(clockwise ? (qe + 1) & 3 : qe, (int16_t)r, xe, ye);
     }
     s = next_slot();
     s->kind = clockwise ? SEG_ARC_CW : SEG_ARC_CCW;
     s->seq = seq;
-    s->a = (int16_t)xs;
-    s->b = (int16_t)ys;
-    s->c = (int16_t)xe;
-    s->d = (int16_t)ye;
+    s->a = xs;
+    s->b = ys;
+    s->c = xe;
+    s->d = ye;
     s->quadrant = qs;
     s->crossings = cross;
-    s->steps = steps > 65535UL ? 65535u : (uint16_t)(steps ? steps : 1);
+    s->steps = steps > 65535UL ? 65535u : (uint16_t)steps;
     plan_speeds(s, feed, exit_rate);
-    q_head++;
+    q_head = QUEUE_NEXT(q_head);
     return E_OK;
 }
 
@@ -217,7 +219,7 @@ static uint8_t plan_wait(uint8_t kind, uint8_t pen_bit, uint16_t ms, uint16_t se
     s->exit = 0;
     s->cruise_period = DWELL_PERIOD;
     s->exit_brake = 0;
-    q_head++;
+    q_head = QUEUE_NEXT(q_head);
     return E_OK;
 }
 

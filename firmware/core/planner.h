@@ -21,11 +21,15 @@
 #define E_BUSY      10
 #define E_RANGE     11
 
-extern XDATA segment_t queue[QUEUE_SIZE];
+extern XDATA segment_t queue[QUEUE_SIZE + 1];
 extern FAST volatile uint8_t q_head, q_tail;   /* head: planner writes, tail: interrupt reads */
 
-#define QUEUE_USED() ((uint8_t)(q_head - q_tail))
-#define QUEUE_FREE() ((uint8_t)(QUEUE_SIZE - QUEUE_USED()))
+/* A ring of QUEUE_SIZE + 1 slots: one stays empty so that full and empty differ. */
+#define QUEUE_SLOTS (QUEUE_SIZE + 1)
+#define QUEUE_NEXT(i) ((uint8_t)((i) + 1 == QUEUE_SLOTS ? 0 : (i) + 1))
+
+uint8_t queue_used(void);
+#define QUEUE_FREE() ((uint8_t)(QUEUE_SIZE - queue_used()))
 
 uint8_t planner_level_for_rate(uint16_t rate);
 uint8_t planner_line(int16_t dx, int16_t dy, uint16_t feed, uint16_t exit_rate, uint16_t seq);

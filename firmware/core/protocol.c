@@ -14,7 +14,7 @@
 
 uint8_t alarm_code;
 
-static XDATA char line[LINE_MAX + 1];
+static IDATA char line[LINE_MAX + 1];
 static uint8_t line_len;
 static uint8_t line_xor;          /* XOR of the bytes before '*' */
 static uint8_t line_star;         /* index of '*' + 1, 0 if none */
@@ -23,7 +23,8 @@ static uint16_t expected_seq;     /* next sequence number to execute */
 static uint8_t resend_asked;      /* an rs is outstanding: drop later lines quietly */
 
 static uint8_t cur;               /* parse cursor into line[] */
-static int32_t args[6];
+static IDATA uint16_t arg_mag[6];  /* magnitudes of the arguments */
+static uint8_t arg_neg;           /* bit k set: argument k is negative */
 static uint8_t nargs;
 
 static void put_str(const char *s)
@@ -94,10 +95,7 @@ static void report_status(void)
     y = pos_y;
     HAL_CRITICAL_END();
     hal_putc('<');
-    if (alarm_code) put_str("Alarm");
-    else if (st_hold) put_str("Hold");
-    else if (st_running) put_str("Run");
-    else put_str("Idle");
+    put_str(alarm_code ? "Alarm" : st_hold ? "Hold" : st_running ? "Run" : "Idle");
     put_field('X', x);
     put_field('Y', y);
     put_field('Q', QUEUE_FREE());
@@ -138,14 +136,15 @@ static const char *error_text(uint8_t code)
     }
 }
 
-/* Parse one signed decimal integer at the cursor into v; 0 on failure. */
-static uint8_t parse_int(int32_t *v)
+/* Parse one decimal integer (optional sign) at the cursor: magnitude into
+ * *mag, returns 1 for positive, 2 for negative, 0 if there is no number. */
+static uint8_t parse_num(uint16_t *mag)
 {
     uint16_t acc = 0;
-    uint8_t neg = 0, digits = 0, d;
+    uint8_t sign = 1, digits = 0, d;
     char c = line[cur];
     if (c == '-' || c == '+') {
-        neg = (c == '-');
+        sign = (c == '-') ? 2 : 1;
         c = line[++cur];
     }
     while (c >= '0' && c <= '9') {
@@ -158,8 +157,14 @@ static uint8_t parse_int(int32_t *v)
         c = line[++cur];
     }
     if (!digits) return 0;
-    *v = neg ? -(int32_t)acc : (int32_t)acc;
-    return 1;
+    *mag = acc;
+    return sign;
+}
+
+/* An unsigned number 0..65535 at the cursor. */
+static uint8_t parse_u16(uint16_t *v)
+{
+    return parse_num(v) == 1;
 }
 
 static void skip_separators(void)
@@ -172,12 +177,15 @@ static void skip_separators(void)
 /* Parse the arguments after the command letter, up to the end or '*'. */
 static uint8_t parse_args(uint8_t end)
 {
+    uint8_t sign;
     nargs = 0;
+    arg_neg = 0;
     skip_separators();
     while (cur < end) {
-        if (nargs == 6 || !parse_int(&args[nargs])) {
+        if (nargs == 6 || !(sign = parse_num(&arg_mag[nargs]))) {
             return E_NUMBER;
         }
+        if (sign == 2) arg_neg |= (uint8_t)(1 << nargs);
         nargs++;
         if (cur < end && line[cur] != ' ' && line[cur] != ',' && line[cur] != '\t') {
             return E_NUMBER;
@@ -187,17 +195,19 @@ static uint8_t parse_args(uint8_t end)
     return E_OK;
 }
 
+/* Argument k as a coordinate, -32767..32767. */
 static uint8_t arg_i16(uint8_t k, int16_t *out)
 {
-    if (args[k] < -32767 || args[k] > 32767) return 0;
-    *out = (int16_t)args[k];
+    if (arg_mag[k] > 32767u) return 0;
+    *out = (arg_neg & (1 << k)) ? -(int16_t)arg_mag[k] : (int16_t)arg_mag[k];
     return 1;
 }
 
+/* Argument k as a count or rate, 0..65535. */
 static uint8_t arg_u16(uint8_t k, uint16_t *out)
 {
-    if (args[k] < 0 || args[k] > 65535L) return 0;
-    *out = (uint16_t)args[k];
+    if (arg_neg & (1 << k)) return 0;
+    *out = arg_mag[k];
     return 1;
 }
 
@@ -219,19 +229,33 @@ static uint8_t cmd_motion(char cmd, uint16_t seq)
     return planner_arc(v[0], v[1], v[2], v[3], cmd == 'C', feed, exit_rate, seq);
 }
 
-static void list_settings(void)
+/* $0 acceleration divisor, $1 ramp shape, $2 default feed, $3 pen delay. */
+#define SETTINGS 4
+static RAMP_ROM uint16_t setting_min[SETTINGS] = {1, 0, 15, 1};
+static RAMP_ROM uint16_t setting_max[SETTINGS] = {50, 1, 65535u, 5000};
+
+static uint16_t setting_get(uint8_t k)
 {
-    put_str("$0="); put_i32(st_accel); put_str(" (accel divisor)"); put_eol();
-    put_str("$1="); put_i32(st_shape); put_str(" (ramp 0=trapezoid 1=exponential)"); put_eol();
-    put_str("$2="); put_i32(default_feed); put_str(" (feed steps/s)"); put_eol();
-    put_str("$3="); put_i32(pen_delay_ms); put_str(" (pen delay ms)"); put_eol();
+    switch (k) {
+    case 0: return st_accel;
+    case 1: return st_shape;
+    case 2: return default_feed;
+    default: return pen_delay_ms;
+    }
 }
 
 static uint8_t cmd_setting(uint8_t end)
 {
-    int32_t key, value;
+    uint16_t key, value;
+    uint8_t k;
     if (cur >= end) {
-        list_settings();
+        for (k = 0; k < SETTINGS; k++) {
+            hal_putc('$');
+            put_i32(k);
+            hal_putc('=');
+            put_i32(setting_get(k));
+            put_eol();
+        }
         return E_OK;
     }
     if (line[cur] == 'I' && cur + 1 == end) {
@@ -245,16 +269,16 @@ static uint8_t cmd_setting(uint8_t end)
         put_eol();
         return E_OK;
     }
-    if (!parse_int(&key) || line[cur] != '=') return E_NUMBER;
+    if (!parse_u16(&key) || line[cur] != '=') return E_NUMBER;
     cur++;
-    if (!parse_int(&value) || cur != end) return E_NUMBER;
-    if (st_running || QUEUE_USED()) return E_BUSY;
+    if (!parse_u16(&value) || cur != end) return E_NUMBER;
+    if (key >= SETTINGS || value < setting_min[key] || value > setting_max[key]) return E_RANGE;
+    if (st_running || queue_used()) return E_BUSY;
     switch ((uint8_t)key) {
-    case 0: if (value < 1 || value > 50) return E_RANGE; st_accel = (uint8_t)value; break;
-    case 1: if (value < 0 || value > 1) return E_RANGE; st_shape = (uint8_t)value; break;
-    case 2: if (value < 15 || value > 65535L) return E_RANGE; default_feed = (uint16_t)value; break;
-    case 3: if (value < 1 || value > 5000) return E_RANGE; pen_delay_ms = (uint16_t)value; break;
-    default: return E_RANGE;
+    case 0: st_accel = (uint8_t)value; break;
+    case 1: st_shape = (uint8_t)value; break;
+    case 2: default_feed = value; break;
+    default: pen_delay_ms = value; break;
     }
     return E_OK;
 }
@@ -279,18 +303,14 @@ static uint8_t run_command(uint8_t end, uint16_t seq)
     case 'A':
         return cmd_motion(cmd, seq);
     case 'P':
-        if (nargs != 1) return E_ARGS;
-        if (args[0] != 0 && args[0] != 1) return E_RANGE;
-        if (alarm_code) return E_ALARM;
-        return planner_pen((uint8_t)args[0], seq);
     case 'D':
         if (nargs != 1) return E_ARGS;
-        if (args[0] < 0 || args[0] > 65535L) return E_RANGE;
+        if (arg_neg || (cmd == 'P' && arg_mag[0] > 1)) return E_RANGE;
         if (alarm_code) return E_ALARM;
-        return planner_dwell((uint16_t)args[0], seq);
+        return cmd == 'P' ? planner_pen((uint8_t)arg_mag[0], seq) : planner_dwell(arg_mag[0], seq);
     case 'H':
         if (nargs != 0) return E_ARGS;
-        if (st_running || QUEUE_USED()) return E_BUSY;
+        if (st_running || queue_used()) return E_BUSY;
         HAL_CRITICAL_BEGIN();
         pos_x = 0;
         pos_y = 0;
@@ -330,8 +350,7 @@ static void reply_resend(uint8_t code)
 
 static void execute_line(void)
 {
-    int32_t seq32, sum;
-    uint16_t seq;
+    uint16_t seq, sum;
     uint8_t end = line_len, err, machine;
     int16_t ahead;
 
@@ -355,17 +374,16 @@ static void execute_line(void)
         return;
     }
     cur = line_star;
-    if (!parse_int(&sum) || line[cur] != 0 || sum != line_xor) {
+    if (!parse_u16(&sum) || line[cur] != 0 || sum != line_xor) {
         reply_resend(E_CHECKSUM);
         return;
     }
     cur = 1;
     while (line[cur] == ' ') cur++;
-    if (!parse_int(&seq32) || seq32 < 0 || seq32 > 65535L) {
+    if (!parse_u16(&seq)) {
         reply_resend(E_CHECKSUM);
         return;
     }
-    seq = (uint16_t)seq32;
     ahead = (int16_t)(seq - expected_seq);
     if (ahead < 0) {
         reply_ok(1, seq);                 /* already executed: acknowledge again */
@@ -450,7 +468,7 @@ void protocol_poll(void)
         receive_byte(c);
         if (c == '\n') break;             /* let the stepper start between lines */
     }
-    if (!st_running && !st_hold && !alarm_code && QUEUE_USED()) {
+    if (!st_running && !st_hold && !alarm_code && queue_used()) {
         stepper_start();
     }
 }

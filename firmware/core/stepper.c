@@ -46,9 +46,11 @@ static FAST int32_t st_af;            /* arc: deviation F = x^2 + y^2 - R^2 */
 static FAST uint8_t st_q;             /* arc: current quadrant 0..3 */
 static FAST uint8_t st_cross;         /* arc: axis crossings before the final quadrant */
 static FAST uint8_t st_mv_pos, st_mv_neg;  /* arc: move for F >= 0 and for F < 0 */
+static FAST uint8_t st_end_axis;      /* arc: half-axis that ends this quadrant: +X, +Y, -X, -Y = 0..3 */
 static FAST uint8_t st_cruise, st_exit;
 static FAST uint16_t st_cruise_period;
 static FAST int16_t st_brake;         /* steps to fall from this level to the exit level */
+static FAST uint16_t st_below;        /* hold steps of all the levels below this one */
 static FAST uint16_t st_level_left;   /* steps left at the current level */
 static RAMP_ROM uint16_t *FAST st_periods;
 static RAMP_ROM uint8_t *FAST st_holds;
@@ -64,7 +66,7 @@ static RAMP_ROM uint8_t arc_moves[2][4][2] = {
     { {MV_YN, MV_XP}, {MV_XP, MV_YP}, {MV_YP, MV_XN}, {MV_XN, MV_YN} },  /* clockwise */
 };
 
-#define HOLD_STEPS(level) ((uint16_t)st_holds[level] * st_accel)
+#define HOLD_STEPS(level) ((uint16_t)((uint8_t)st_holds[level] * (uint8_t)st_accel))  /* MUL AB */
 
 void stepper_init(void)
 {
@@ -97,6 +99,7 @@ void stepper_start(void)
     st_left = 0;
     st_pulse = 0;
     st_level = 0;
+    st_below = 0;
     st_level_left = HOLD_STEPS(0);
     st_paused = 0;
     st_running = 1;
@@ -112,21 +115,30 @@ void stepper_resume(void)
     }
 }
 
-static inline void set_arc_moves(void)
+INLINE void set_arc_moves(void)
 {
-    st_mv_pos = arc_moves[st_kind == SEG_ARC_CW][st_q][0];
-    st_mv_neg = arc_moves[st_kind == SEG_ARC_CW][st_q][1];
+    uint8_t cw = (st_kind == SEG_ARC_CW);
+    st_mv_pos = arc_moves[cw][st_q][0];
+    st_mv_neg = arc_moves[cw][st_q][1];
+    st_end_axis = cw ? st_q : ((st_q + 1) & 3);
 }
+
+/* Has the arc reached the half-axis that ends its quadrant?  Testing the
+ * point, not the last move, keeps radius 1 right: its staircase passes
+ * through the centre, which lies on every axis and ends no quadrant. */
+#define AT_END_AXIS() ((st_end_axis & 1)                                       \
+        ? (st_x == 0 && ((st_end_axis & 2) ? st_y < 0 : st_y > 0))            \
+        : (st_y == 0 && ((st_end_axis & 2) ? st_x < 0 : st_x > 0)))
 
 /* Copy the next queued segment into the interrupt's working set.
  * Returns 0 when the queue is empty. */
-static inline uint8_t load_segment(void)
+INLINE uint8_t load_segment(void)
 {
     XDATA segment_t *s;
     if (q_tail == q_head) {
         return 0;
     }
-    s = &queue[q_tail & (QUEUE_SIZE - 1)];
+    s = &queue[q_tail];
     st_kind = s->kind;
     st_seq = s->seq;
     st_left = s->steps;
@@ -141,6 +153,7 @@ static inline uint8_t load_segment(void)
         }
         st_kind = SEG_DWELL;
         st_level = 0;
+        st_below = 0;
         st_level_left = HOLD_STEPS(0);
     } else {
         st_x = s->a;
@@ -155,9 +168,8 @@ static inline uint8_t load_segment(void)
     st_cruise = s->cruise;
     st_cruise_period = s->cruise_period;
     st_exit = s->exit;
-    st_brake = (st_level ? (int16_t)(ramp_prefix[st_shape][st_level - 1] * st_accel) : 0)
-               - (int16_t)s->exit_brake;
-    q_tail++;
+    st_brake = (int16_t)(st_below - s->exit_brake);
+    q_tail = QUEUE_NEXT(q_tail);
     if (st_exit && q_tail == q_head) {
         /* Nothing follows yet: plan to stop rather than run off the queue's end. */
         st_exit = 0;
@@ -168,20 +180,20 @@ static inline uint8_t load_segment(void)
     return 1;
 }
 
+/* Does move mv head towards the end coordinate on its axis? */
+#define MV_TOWARDS_END(mv) (((mv) & 1) ? ((mv) & 2 ? st_y > st_ye : st_x > st_xe) \
+                                       : ((mv) & 2 ? st_y < st_ye : st_x < st_xe))
+
 /* Pick the arc's next move; in the final quadrant never pass the end. */
-static inline uint8_t arc_next_move(void)
+INLINE uint8_t arc_next_move(void)
 {
     uint8_t mv = st_af < 0 ? st_mv_neg : st_mv_pos;
-    uint8_t k;
-    if (st_cross) {
+    if (st_cross || MV_TOWARDS_END(mv)) {
         return mv;
     }
-    for (k = 0; k < 2; k++) {
-        if ((mv == MV_XP && st_x < st_xe) || (mv == MV_XN && st_x > st_xe) ||
-            (mv == MV_YP && st_y < st_ye) || (mv == MV_YN && st_y > st_ye)) {
-            return mv;
-        }
-        mv = (mv == st_mv_pos) ? st_mv_neg : st_mv_pos;
+    mv = (mv == st_mv_pos) ? st_mv_neg : st_mv_pos;
+    if (MV_TOWARDS_END(mv)) {
+        return mv;
     }
     /* The end lies just off the staircase: walk straight onto it. */
     if (st_x != st_xe) {
@@ -193,6 +205,7 @@ static inline uint8_t arc_next_move(void)
 STEPPER_ISR
 {
     uint8_t mv;
+    int16_t c;
 
     HAL_TIMER_ADVANCE(st_period);
     if (st_pulse) {
@@ -246,30 +259,27 @@ STEPPER_ISR
         st_left--;
     } else {
         mv = arc_next_move();
-        if (mv == MV_XP) {
-            st_af += ((int32_t)st_x << 1) + 1;
-            st_x++;
-            st_pulse = BIT_X_STEP;
-            st_port &= ~BIT_X_DIR;
-        } else if (mv == MV_XN) {
-            st_af -= ((int32_t)st_x << 1) - 1;
-            st_x--;
-            st_pulse = BIT_X_STEP;
-            st_port |= BIT_X_DIR;
-        } else if (mv == MV_YP) {
-            st_af += ((int32_t)st_y << 1) + 1;
-            st_y++;
+        /* F = x^2 + y^2 - R^2 changes by 2c+1 when c becomes c+1, by -2c+1 when c becomes c-1. */
+        if (mv & 2) {
+            c = st_y;
             st_pulse = BIT_Y_STEP;
-            st_port &= ~BIT_Y_DIR;
         } else {
-            st_af -= ((int32_t)st_y << 1) - 1;
-            st_y--;
-            st_pulse = BIT_Y_STEP;
-            st_port |= BIT_Y_DIR;
+            c = st_x;
+            st_pulse = BIT_X_STEP;
         }
+        if (mv & 1) {
+            c = -c;
+            st_port |= (uint8_t)(st_pulse << 1);           /* direction bit sits above its step bit */
+        } else {
+            st_port &= (uint8_t)~(st_pulse << 1);
+        }
+        st_af += ((int32_t)c << 1) + 1;
+        if (mv == MV_XP) st_x++;
+        else if (mv == MV_XN) st_x--;
+        else if (mv == MV_YP) st_y++;
+        else st_y--;
         if (st_cross) {
-            if ((st_pulse == BIT_X_STEP ? st_x : st_y) == 0) {
-                /* Crossed an axis into the next quadrant. */
+            if (AT_END_AXIS()) {
                 st_q = (st_kind == SEG_ARC_CW) ? ((st_q + 3) & 3) : ((st_q + 1) & 3);
                 set_arc_moves();
                 if (--st_cross == 0) {
@@ -296,11 +306,14 @@ STEPPER_ISR
             st_level--;
             st_level_left = HOLD_STEPS(st_level);
             st_brake -= st_level_left;
+            st_below -= st_level_left;
         }
         st_period = st_periods[st_level];
     } else if (st_level < st_cruise && !st_hold) {
         if (--st_level_left == 0) {
-            st_brake += HOLD_STEPS(st_level);
+            st_level_left = HOLD_STEPS(st_level);
+            st_brake += st_level_left;
+            st_below += st_level_left;
             st_level++;
             st_level_left = HOLD_STEPS(st_level);
         }

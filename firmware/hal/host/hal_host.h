@@ -7,7 +7,9 @@
 #include <stdint.h>
 
 #define FAST
+#define INLINE static inline
 #define XDATA
+#define IDATA
 #define HAL_PORT_IDLE 0x00
 
 extern uint16_t host_period;      /* cycles until the next step interrupt */

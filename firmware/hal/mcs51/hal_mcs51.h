@@ -8,7 +8,10 @@
 #include <stdint.h>
 
 #define FAST __data
+/* C99 inline without extern: SDCC expands it and emits no unused copy. */
+#define INLINE inline
 #define XDATA __xdata
+#define IDATA __idata
 
 /* P1.5-P1.7 are inputs (limit switches, spare): keep them written high. */
 #define HAL_PORT_IDLE 0xE0

@@ -1,0 +1,150 @@
+"""The firmware core (firmware/core, host build) loaded through ctypes.
+
+The same C files that run on the 8051 are compiled by `make -C firmware` into
+libplotter_core.so.  Each FirmwareCore loads a private copy of the library so
+that several boards can live in one process without sharing C globals.
+"""
+from __future__ import annotations
+
+import ctypes
+import os
+import shutil
+import tempfile
+from dataclasses import dataclass
+from pathlib import Path
+
+CYCLES_PER_S = 921_600  # STC89C52RC: 11.0592 MHz / 12
+LIB_NAME = "libplotter_core.so"
+
+
+def find_library() -> Path:
+    """Locate libplotter_core.so: $PLOTTER_CORE_LIB, else firmware/build above this file or cwd."""
+    env = os.environ.get("PLOTTER_CORE_LIB")
+    if env:
+        return Path(env)
+    for start in (Path(__file__).resolve(), Path.cwd().resolve()):
+        for parent in (start, *start.parents):
+            candidate = parent / "firmware" / "build" / LIB_NAME
+            if candidate.exists():
+                return candidate
+    raise FileNotFoundError(
+        f"{LIB_NAME} not found: run `make -C firmware` or set PLOTTER_CORE_LIB")
+
+
+@dataclass(frozen=True)
+class Step:
+    dx: int      # -1, 0 or +1
+    dy: int
+    cycles: int  # machine cycles since the previous step
+
+
+class FirmwareCore:
+    """One simulated board: feed bytes in, run the main loop, fire step ticks."""
+
+    def __init__(self, library: Path | None = None) -> None:
+        src = Path(library) if library else find_library()
+        self._tmpdir = tempfile.TemporaryDirectory(prefix="plotter-core-")
+        private = Path(self._tmpdir.name) / LIB_NAME
+        shutil.copyfile(src, private)
+        lib = ctypes.CDLL(str(private), mode=ctypes.RTLD_LOCAL)
+        for name in ("core_pos_x", "core_pos_y"):
+            getattr(lib, name).restype = ctypes.c_int32
+        lib.core_period.restype = ctypes.c_uint
+        lib.core_tx_read.restype = ctypes.c_uint32
+        lib.core_seq_log.restype = ctypes.c_uint32
+        lib.core_run_steps.restype = ctypes.c_int32
+        lib.core_rx_free.restype = ctypes.c_uint32
+        self._lib = lib
+        self._txbuf = ctypes.create_string_buffer(8192)
+        self.reset()
+
+    def close(self) -> None:
+        self._tmpdir.cleanup()
+
+    # --- hardware side -------------------------------------------------
+    def reset(self) -> None:
+        """Power-on reset: clears the queue and position, prints the banner."""
+        self._lib.core_reset()
+
+    def receive(self, data: bytes) -> None:
+        """Bytes arriving on the UART (real-time bytes act at once)."""
+        self._lib.core_rx(data, len(data))
+
+    def rx_free(self) -> int:
+        return int(self._lib.core_rx_free())
+
+    def poll(self, times: int = 1) -> None:
+        """Run the firmware's main loop."""
+        for _ in range(times):
+            self._lib.core_poll()
+
+    def transmitted(self) -> bytes:
+        """Bytes the firmware sent since the last call."""
+        out = bytearray()
+        while True:
+            n = self._lib.core_tx_read(self._txbuf, len(self._txbuf))
+            out += self._txbuf.raw[:n]
+            if n < len(self._txbuf):
+                return bytes(out)
+
+    def timer_running(self) -> bool:
+        return bool(self._lib.core_timer_on())
+
+    def period(self) -> int:
+        """Machine cycles until the next step interrupt."""
+        return int(self._lib.core_period())
+
+    def tick(self) -> bool:
+        """Fire the step interrupt once; True if a step was emitted."""
+        return bool(self._lib.core_tick())
+
+    # --- state --------------------------------------------------------
+    @property
+    def position(self) -> tuple[int, int]:
+        return int(self._lib.core_pos_x()), int(self._lib.core_pos_y())
+
+    @property
+    def pen_down(self) -> bool:
+        return bool(self._lib.core_pen())
+
+    @property
+    def running(self) -> bool:
+        return bool(self._lib.core_running())
+
+    @property
+    def queue_free(self) -> int:
+        return int(self._lib.core_queue_free())
+
+    @property
+    def underruns(self) -> int:
+        return int(self._lib.core_underruns())
+
+    @property
+    def level(self) -> int:
+        return int(self._lib.core_level())
+
+    @property
+    def alarm(self) -> int:
+        return int(self._lib.core_alarm())
+
+    def seq_log(self) -> list[int]:
+        """Sequence numbers of the queued commands in the order they started."""
+        buf = (ctypes.c_uint16 * 65536)()
+        n = self._lib.core_seq_log(buf, 65536)
+        return list(buf[:n])
+
+    # --- direct planner access (tests) -------------------------------
+    def plan_line(self, dx: int, dy: int, feed: int = 0, exit_rate: int = 0) -> int:
+        return int(self._lib.core_plan_line(dx, dy, feed, exit_rate))
+
+    def plan_arc(self, dx: int, dy: int, i: int, j: int, clockwise: bool,
+                 feed: int = 0, exit_rate: int = 0) -> int:
+        return int(self._lib.core_plan_arc(dx, dy, i, j, int(clockwise), feed, exit_rate))
+
+    def run_steps(self, capacity: int = 1_000_000) -> list[Step]:
+        """Run everything queued to the end in simulated time; every step taken."""
+        buf = (ctypes.c_int32 * (3 * capacity))()
+        n = self._lib.core_run_steps(buf, capacity)
+        if n < 0:
+            raise OverflowError("more steps than capacity")
+        return [Step(buf[3 * k], buf[3 * k + 1], buf[3 * k + 2]) for k in range(n)]
