@@ -1,0 +1,112 @@
+"""From step moves (gcode_steps) to commands of the firmware protocol.
+
+The firmware's feed is in steps per second, and point-by-point interpolation
+moves one axis at a time, so a path of length s mm drawn as n steps needs
+n / s * v steps per second for a path speed of v mm/s (a 45-degree line takes
+1.41 times more steps per mm than an axis-parallel one).
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import Iterable, List, Optional
+
+from .gcode_steps import StepItem, StepMove
+from .gcode_types import Dwell, Pause, PenChange
+
+MAX_DELTA = 32767          # the firmware's coordinate range per command
+MIN_RATE = 15              # steps/s: the firmware's slowest feed
+MAX_RATE = 12850           # steps/s: the top of the firmware's ramp table ($I field T)
+
+
+@dataclass(frozen=True)
+class BoardCommand:
+    text: str              # e.g. "L 400 -300 2000 0"
+    line: int              # G-code line it came from (0: none)
+    steps: int = 0         # steps it makes the board take
+
+
+def _rate(feed_mm_min: float, steps: int, length_mm: float) -> int:
+    if steps == 0 or length_mm <= 0:
+        return MIN_RATE
+    rate = feed_mm_min / 60.0 * steps / length_mm
+    return int(min(MAX_RATE, max(MIN_RATE, round(rate))))
+
+
+def arc_steps(i: int, j: int, dx: int, dy: int, cw: bool) -> tuple:
+    """(steps, length in steps) of a point-by-point arc: its steps are the
+    total variation of x plus that of y along the circle."""
+    x0, y0 = -i, -j
+    r = math.hypot(x0, y0)
+    a0 = math.atan2(y0, x0)
+    a1 = math.atan2(dy - j, dx - i)
+    sweep = (a0 - a1) if cw else (a1 - a0)
+    sweep %= 2 * math.pi
+    if sweep == 0:
+        sweep = 2 * math.pi
+    sign = -1 if cw else 1
+    # Extremes lie at multiples of 90 degrees; add up the monotone pieces.
+    total, a, end = 0.0, a0, a0 + sign * sweep
+    px, py = math.cos(a), math.sin(a)
+    while True:
+        k = math.floor(a / (math.pi / 2)) + 1 if sign > 0 else math.ceil(a / (math.pi / 2)) - 1
+        nxt = k * math.pi / 2
+        done = (nxt >= end) if sign > 0 else (nxt <= end)
+        a = end if done else nxt
+        qx, qy = math.cos(a), math.sin(a)
+        total += abs(qx - px) + abs(qy - py)
+        px, py = qx, qy
+        if done:
+            break
+    return round(total * r), r * sweep
+
+
+def _split_line(dx: int, dy: int) -> List[tuple]:
+    pieces = max(1, math.ceil(max(abs(dx), abs(dy)) / MAX_DELTA))
+    out, px, py = [], 0, 0
+    for k in range(1, pieces + 1):
+        x, y = round(dx * k / pieces), round(dy * k / pieces)
+        out.append((x - px, y - py))
+        px, py = x, y
+    return out
+
+
+def to_commands(items: Iterable[StepItem], steps_per_mm: float,
+                rapid_feed: float = 6000.0) -> List[BoardCommand]:
+    """Board commands for a program converted to steps; pen changes only when needed."""
+    out: List[BoardCommand] = []
+    pen: Optional[str] = None
+
+    def set_pen(want: str, line: int) -> None:
+        nonlocal pen
+        if want != pen:
+            out.append(BoardCommand("P 1" if want == "down" else "P 0", line))
+            pen = want
+
+    for item in items:
+        if isinstance(item, PenChange):
+            set_pen(item.pen, item.line)
+        elif isinstance(item, Dwell):
+            ms = int(round(item.seconds * 1000))
+            while ms > 0:
+                out.append(BoardCommand(f"D {min(ms, 65535)}", item.line))
+                ms -= 65535
+        elif isinstance(item, Pause):
+            continue
+        elif isinstance(item, StepMove):
+            set_pen("up" if item.rapid else item.pen, item.line)
+            feed = rapid_feed if item.rapid else item.feed
+            if item.kind == "arc":
+                n, length = arc_steps(item.i, item.j, item.dx, item.dy, item.cw)
+                rate = _rate(feed, n, length / steps_per_mm)
+                letter = "C" if item.cw else "A"
+                out.append(BoardCommand(f"{letter} {item.dx} {item.dy} {item.i} {item.j} {rate} 0",
+                                        item.line, n))
+            else:
+                if item.dx == 0 and item.dy == 0:
+                    continue
+                for dx, dy in _split_line(item.dx, item.dy):
+                    n = abs(dx) + abs(dy)
+                    rate = _rate(feed, n, math.hypot(dx, dy) / steps_per_mm)
+                    out.append(BoardCommand(f"L {dx} {dy} {rate} 0", item.line, n))
+    return out

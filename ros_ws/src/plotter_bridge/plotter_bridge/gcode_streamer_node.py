@@ -1,0 +1,189 @@
+"""gcode_streamer: runs G-code programs on the plotter.
+
+Takes programs from the `program` topic (std_msgs/String; run one after the
+other) and from the `run_program` action (plotter_interfaces/RunProgram,
+with progress and cancel).  Each program is parsed and checked against the
+work area completely before anything moves; then it is converted to board
+commands and streamed through the serial bridge's `stream_commands` action,
+which keeps the board's queue full.
+"""
+from __future__ import annotations
+
+import math
+import queue
+import threading
+from dataclasses import dataclass
+from typing import List, Optional
+
+import rclpy
+from rclpy.action import ActionClient, ActionServer, CancelResponse, GoalResponse
+from rclpy.callback_groups import ReentrantCallbackGroup
+from rclpy.executors import ExternalShutdownException, MultiThreadedExecutor
+from rclpy.node import Node
+from rcl_interfaces.msg import ParameterDescriptor
+from std_msgs.msg import String
+
+from plotter_interfaces.action import RunProgram, StreamCommands
+
+from .commands import BoardCommand, to_commands
+from .gcode import load_program
+from .gcode_limits import WorkArea, check_limits
+from .gcode_steps import to_steps
+from .gcode_types import GCodeError
+
+MAX_PROGRAM_BYTES = 4 * 1024 * 1024
+DEFAULT_NAMESPACE = "/plotter"   # `-r __ns:=/plotter2` runs a second plotter beside it
+
+
+@dataclass(frozen=True)
+class StreamerConfig:
+    steps_per_mm: float = 80.0
+    rapid_feed: float = 6000.0
+    area: WorkArea = WorkArea()
+
+
+def compile_program(text: str, config: StreamerConfig) -> List[BoardCommand]:
+    """G-code text to board commands; raises GCodeError naming the line."""
+    data = text.encode("utf-8", "surrogateescape") if isinstance(text, str) else text
+    if len(data) > MAX_PROGRAM_BYTES:
+        raise GCodeError(0, f"program too large: {len(data)} bytes (limit {MAX_PROGRAM_BYTES})")
+    items = load_program(data, rapid_rate=config.rapid_feed)
+    check_limits(items, config.area)
+    return to_commands(to_steps(items, config.steps_per_mm), config.steps_per_mm, config.rapid_feed)
+
+
+class GCodeStreamer(Node):
+    def __init__(self) -> None:
+        super().__init__("gcode_streamer", namespace=DEFAULT_NAMESPACE)
+        d = ParameterDescriptor
+        self.declare_parameter("steps_per_mm", 80.0, d(description="motor steps per millimetre, both axes"))
+        self.declare_parameter("rapid_feed", 6000.0, d(description="G0 travel rate, mm/min"))
+        self.declare_parameter("x_min", 0.0, d(description="work area, mm from the power-on origin"))
+        self.declare_parameter("x_max", 200.0, d(description="work area, mm"))
+        self.declare_parameter("y_min", 0.0, d(description="work area, mm"))
+        self.declare_parameter("y_max", 200.0, d(description="work area, mm"))
+        self.config = self._read_config()
+        group = ReentrantCallbackGroup()
+        self.pub_error = self.create_publisher(String, "program_error", 10)
+        self.create_subscription(String, "program", self._on_program, 10, callback_group=group)
+        self._bridge = ActionClient(self, StreamCommands, "stream_commands", callback_group=group)
+        self._server = ActionServer(self, RunProgram, "run_program", self._execute,
+                                    goal_callback=lambda _: GoalResponse.ACCEPT,
+                                    cancel_callback=lambda _: CancelResponse.ACCEPT,
+                                    callback_group=group)
+        self._busy = threading.Lock()      # one program on the board at a time
+        self._last_xy = (0.0, 0.0)
+        self._topic_jobs: "queue.Queue[str]" = queue.Queue()
+        self._worker = threading.Thread(target=self._topic_worker, daemon=True)
+        self._worker.start()
+
+    def _read_config(self) -> StreamerConfig:
+        g = lambda n: float(self.get_parameter(n).value)  # noqa: E731
+        values = [g(n) for n in ("steps_per_mm", "rapid_feed", "x_min", "x_max", "y_min", "y_max")]
+        if not all(math.isfinite(v) for v in values) or values[0] <= 0 or values[1] <= 0 \
+                or values[2] >= values[3] or values[4] >= values[5]:
+            raise ValueError(f"bad gcode_streamer parameters: {values}")
+        return StreamerConfig(values[0], values[1], WorkArea(values[2], values[3], values[4], values[5]))
+
+    # --- programs from the topic ---------------------------------------------
+    def _on_program(self, msg: String) -> None:
+        self._topic_jobs.put(msg.data)
+
+    def _topic_worker(self) -> None:
+        while rclpy.ok():
+            try:
+                text = self._topic_jobs.get(timeout=0.5)
+            except queue.Empty:
+                continue
+            ok, message, _ = self.run(text, "topic", None)
+            if not ok:
+                self.pub_error.publish(String(data=message))
+
+    # --- the action ------------------------------------------------------------
+    def _execute(self, goal_handle):
+        req = goal_handle.request
+        ok, message, done = self.run(req.program, req.name or "program", goal_handle)
+        result = RunProgram.Result()
+        result.success, result.message, result.lines_done = ok, message, done
+        result.x_mm, result.y_mm = self._last_xy
+        if goal_handle.is_cancel_requested and not ok:
+            goal_handle.canceled()
+        elif ok:
+            goal_handle.succeed()
+        else:
+            goal_handle.abort()
+        return result
+
+    def run(self, text: str, name: str, goal_handle) -> tuple:
+        """Run one program; returns (success, message, lines done)."""
+        try:
+            commands = compile_program(text, self.config)
+        except GCodeError as exc:
+            self.get_logger().error(f"{name}: {exc}")
+            return False, str(exc), 0
+        total_lines = max((c.line for c in commands), default=0)
+        if not commands:
+            return True, "nothing to do", 0
+        with self._busy:
+            if not self._bridge.wait_for_server(timeout_sec=10.0):
+                return False, "serial bridge not available (stream_commands)", 0
+            goal = StreamCommands.Goal()
+            goal.commands = [c.text for c in commands]
+            goal.lines = [c.line for c in commands]
+
+            def relay(fb_msg):
+                fb = fb_msg.feedback
+                self._last_xy = (fb.x_mm, fb.y_mm)
+                if goal_handle is not None:
+                    out = RunProgram.Feedback()
+                    out.current_line = fb.current_line
+                    out.total_lines = total_lines
+                    out.progress = float(fb.executed) / max(1, fb.total)
+                    out.x_mm, out.y_mm = fb.x_mm, fb.y_mm
+                    goal_handle.publish_feedback(out)
+
+            send = self._bridge.send_goal_async(goal, feedback_callback=relay)
+            if not _wait(send, 10.0):
+                return False, "serial bridge did not answer", 0
+            inner = send.result()
+            if not inner.accepted:
+                return False, "serial bridge refused the job (busy, disconnected or bad commands)", 0
+            res_future = inner.get_result_async()
+            while not res_future.done():
+                if goal_handle is not None and goal_handle.is_cancel_requested:
+                    inner.cancel_goal_async()
+                    _wait(res_future, 10.0)
+                    return False, "canceled", 0
+                _wait(res_future, 0.05)
+            res = res_future.result().result
+            idx = min(res.executed, len(commands))
+            lines_done = commands[idx - 1].line if idx else 0
+            if res.success:
+                return True, f"{name}: done", total_lines
+            return False, f"{name}: {res.message}", lines_done
+
+
+def _wait(future, timeout: float) -> bool:
+    event = threading.Event()
+    future.add_done_callback(lambda _: event.set())
+    return event.wait(timeout) or future.done()
+
+
+def main(args=None) -> None:
+    rclpy.init(args=args)
+    node = None
+    try:
+        node = GCodeStreamer()
+        executor = MultiThreadedExecutor()
+        executor.add_node(node)
+        executor.spin()
+    except (KeyboardInterrupt, ExternalShutdownException):
+        pass
+    finally:
+        if node is not None:
+            node.destroy_node()
+        rclpy.try_shutdown()
+
+
+if __name__ == "__main__":
+    main()

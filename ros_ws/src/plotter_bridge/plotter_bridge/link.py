@@ -1,0 +1,227 @@
+"""Streaming commands to the board without waiting for each reply.
+
+BoardLink keeps a window of numbered commands in flight, limited by the
+board's receive buffer (bytes not yet acknowledged) and its free queue slots
+(the `Q` of the latest reply, less what was sent after it).  Damaged or lost
+lines are sent again from the number the board expects ("go back N"): on an
+`rs`, or when the oldest line stays unacknowledged past a time-out.  The
+board executes each number once, so repeats are harmless.
+
+The caller drives it: `poll()` reads what arrived, reacts, and sends what the
+window allows.  It owns no thread and knows nothing of ROS.
+"""
+from __future__ import annotations
+
+import time
+from collections import deque
+from dataclasses import dataclass, field
+from itertools import islice
+from typing import Callable, Deque, Optional, Protocol
+
+from .protocol import (RT_STATUS, SEQ_MOD, Banner, Err, Message, Ok, Resend, Status,
+                       machine_line, parse_reply)
+
+
+class Port(Protocol):
+    def write(self, data: bytes) -> int: ...
+    def read(self, n: int) -> bytes: ...
+
+
+@dataclass
+class Command:
+    seq: int                 # host sequence number, unbounded; the wire carries seq % 65536
+    text: str                # e.g. "L 120 -40 2000 0"
+    tag: object = None       # caller's bookkeeping (source line)
+    data: bytes = b""
+    sent_at: Optional[float] = None
+
+
+@dataclass
+class LinkStats:
+    lines_sent: int = 0
+    retransmissions: int = 0
+    resend_requests: int = 0
+    timeouts: int = 0
+    bytes_sent: int = 0
+    bytes_received: int = 0
+    garbled_replies: int = 0
+
+
+@dataclass
+class BoardLink:
+    port: Port
+    rx_buffer: int = 64              # the board's receive ring (PROTOCOL: $I field B)
+    ack_timeout: float = 0.5         # seconds before the window is sent again
+    status_interval: float = 0.05    # '?' polling period while the link is up
+    clock: Callable[[], float] = time.monotonic
+    on_status: Optional[Callable[[Status], None]] = None
+    on_ack: Optional[Callable[[Command], None]] = None
+    on_error: Optional[Callable[[Command, Err], None]] = None
+    on_banner: Optional[Callable[[str], None]] = None
+    on_message: Optional[Callable[[str], None]] = None
+    stats: LinkStats = field(default_factory=LinkStats)
+
+    def __post_init__(self) -> None:
+        self._next_seq = 0
+        self._window: Deque[Command] = deque()   # unacknowledged, oldest first
+        self._send_pos = 0                        # index in _window of the next to send
+        self._credit_q = 0                        # free slots known from the last report
+        self._credit_from = 0                     # first host seq that report did not cover
+        self._inbuf = b""
+        self._last_status_req = -1e9
+        self._status_pending = False
+        self.status: Optional[Status] = None
+        self.acked = -1                           # highest host seq acknowledged
+
+    # --- numbering ---------------------------------------------------------
+    def sync(self, expected_wire_seq: int, queue_free: int) -> None:
+        """Continue numbering where the board expects (after a banner: 0)."""
+        base = self._next_seq - (self._next_seq % SEQ_MOD) + expected_wire_seq
+        if base < self._next_seq:
+            base += SEQ_MOD
+        self._next_seq = base
+        self.acked = base - 1
+        self._window.clear()
+        self._send_pos = 0
+        self._credit_q = queue_free
+        self._credit_from = base
+
+    def _host_seq(self, wire: int) -> int:
+        """The host number closest to the window for a 16-bit wire number."""
+        ref = self._window[0].seq if self._window else self._next_seq
+        d = (wire - ref) % SEQ_MOD
+        if d >= SEQ_MOD // 2:
+            d -= SEQ_MOD
+        return ref + d
+
+    # --- queueing ----------------------------------------------------------
+    def submit(self, text: str, tag: object = None) -> Command:
+        cmd = Command(self._next_seq, text, tag, machine_line(self._next_seq, text))
+        self._next_seq += 1
+        self._window.append(cmd)
+        return cmd
+
+    @property
+    def outstanding(self) -> int:
+        """Commands submitted but not acknowledged."""
+        return len(self._window)
+
+    def discard(self) -> None:
+        """Forget everything not yet acknowledged (after an abort)."""
+        self._window.clear()
+        self._send_pos = 0
+
+    def realtime(self, byte: bytes) -> None:
+        self.port.write(byte)
+        self.stats.bytes_sent += len(byte)
+
+    def request_status(self) -> None:
+        self.realtime(RT_STATUS)
+        self._last_status_req = self.clock()
+        self._status_pending = True
+
+    # --- the pump ----------------------------------------------------------
+    def poll(self) -> None:
+        data = self.port.read(4096)
+        if data:
+            self.stats.bytes_received += len(data)
+            self._inbuf += data
+            *lines, self._inbuf = self._inbuf.split(b"\n")
+            for raw in lines:
+                self._handle(raw.decode("ascii", "replace").strip("\r"))
+            if len(self._inbuf) > 512:      # a line that never ends: noise
+                self._inbuf = b""
+        now = self.clock()
+        self._check_timeout(now)
+        self._transmit(now)
+        waiting = self._send_pos < len(self._window) and self._credit() <= 0
+        interval = self.status_interval / 4 if waiting else self.status_interval
+        if now - self._last_status_req >= (interval if not self._status_pending else max(interval, 0.3)):
+            self.request_status()
+
+    def _credit(self) -> int:
+        """Queue slots the board still has for lines not yet sent."""
+        sent_after = sum(1 for c in islice(self._window, self._send_pos) if c.seq >= self._credit_from)
+        return self._credit_q - sent_after
+
+    def _in_flight_bytes(self) -> int:
+        return sum(len(c.data) for c in islice(self._window, self._send_pos))
+
+    def _transmit(self, now: float) -> None:
+        budget = self.rx_buffer - self._in_flight_bytes()
+        credit = self._credit()
+        while self._send_pos < len(self._window) and credit > 0:
+            cmd = self._window[self._send_pos]
+            if len(cmd.data) > budget:
+                break
+            if cmd.sent_at is not None:
+                self.stats.retransmissions += 1
+            self.port.write(cmd.data)
+            self.stats.bytes_sent += len(cmd.data)
+            self.stats.lines_sent += 1
+            cmd.sent_at = now
+            budget -= len(cmd.data)
+            credit -= 1
+            self._send_pos += 1
+
+    def _check_timeout(self, now: float) -> None:
+        if self._send_pos == 0:
+            return
+        oldest = self._window[0]
+        if oldest.sent_at is not None and now - oldest.sent_at > self.ack_timeout:
+            self.stats.timeouts += 1
+            self._send_pos = 0                 # send the whole window again
+            self.request_status()
+
+    def _acknowledge_through(self, seq: int) -> None:
+        while self._window and self._window[0].seq <= seq:
+            cmd = self._window.popleft()
+            self._send_pos = max(0, self._send_pos - 1)
+            self.acked = max(self.acked, cmd.seq)
+            if self.on_ack:
+                self.on_ack(cmd)
+
+    def _handle(self, line: str) -> None:
+        reply = parse_reply(line)
+        if reply is None:
+            if line:
+                self.stats.garbled_replies += 1
+            return
+        if isinstance(reply, Ok):
+            if reply.seq is None:
+                return
+            seq = self._host_seq(reply.seq)
+            self._acknowledge_through(seq)
+            if seq + 1 >= self._credit_from:
+                self._credit_q, self._credit_from = reply.queue_free, seq + 1
+        elif isinstance(reply, Resend):
+            self.stats.resend_requests += 1
+            expected = self._host_seq(reply.expected)
+            self._acknowledge_through(expected - 1)
+            self._send_pos = 0
+        elif isinstance(reply, Err):
+            if reply.seq is None:
+                return
+            seq = self._host_seq(reply.seq)
+            self._acknowledge_through(seq - 1)
+            if self._window and self._window[0].seq == seq:
+                cmd = self._window.popleft()
+                self._send_pos = max(0, self._send_pos - 1)
+                self.acked = max(self.acked, seq)
+                if self.on_error:
+                    self.on_error(cmd, reply)
+        elif isinstance(reply, Status):
+            self._status_pending = False
+            self.status = reply
+            nxt = self._host_seq(reply.next_seq)
+            self._acknowledge_through(nxt - 1)
+            if nxt >= self._credit_from:
+                self._credit_q, self._credit_from = reply.queue_free, nxt
+            if self.on_status:
+                self.on_status(reply)
+        elif isinstance(reply, Banner):
+            if self.on_banner:
+                self.on_banner(reply.text)
+        elif isinstance(reply, Message):
+            if self.on_message:
+                self.on_message(reply.text)

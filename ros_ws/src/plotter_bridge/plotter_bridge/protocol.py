@@ -1,0 +1,122 @@
+"""Pure functions for the firmware's wire protocol (firmware/PROTOCOL.md).
+
+Formatting of machine lines (sequence number and checksum) and parsing of
+the board's replies.  No I/O here, so everything is testable without a port.
+"""
+from __future__ import annotations
+
+import re
+from dataclasses import dataclass
+from typing import Optional, Union
+
+SEQ_MOD = 1 << 16
+BANNER_PREFIX = "PLOTTER 8051"
+
+RT_STATUS = b"?"
+RT_HOLD = b"!"
+RT_RESUME = b"~"
+RT_RESET = b"\x18"
+RT_ESTOP = b"\x1b"
+
+ERROR_TEXT = {
+    1: "unknown command", 2: "checksum", 3: "bad number", 4: "line too long",
+    5: "queue full", 6: "argument count", 7: "sequence gap", 8: "bad arc",
+    9: "alarm, reset first", 10: "busy, wait for idle", 11: "out of range",
+}
+
+
+def checksum(text: str) -> int:
+    """XOR of the bytes of text."""
+    value = 0
+    for b in text.encode("ascii"):
+        value ^= b
+    return value
+
+
+def machine_line(seq: int, command: str) -> bytes:
+    """`N<seq> <command> *<xor>\\n` for a command like `L 10 -4`."""
+    body = f"N{seq % SEQ_MOD} {command} "
+    return f"{body}*{checksum(body)}\n".encode("ascii")
+
+
+@dataclass(frozen=True)
+class Ok:
+    seq: Optional[int]     # None for a typed line
+    queue_free: int
+
+
+@dataclass(frozen=True)
+class Err:
+    seq: Optional[int]
+    code: int
+    text: str
+
+
+@dataclass(frozen=True)
+class Resend:
+    expected: int
+    code: int
+
+
+@dataclass(frozen=True)
+class Status:
+    state: str             # Idle, Run, Hold, Alarm
+    x: int
+    y: int
+    queue_free: int
+    next_seq: int
+    seq: int               # command executing or last executed
+    pen_down: bool
+    underruns: int
+    alarm: int
+
+
+@dataclass(frozen=True)
+class Banner:
+    text: str
+
+
+@dataclass(frozen=True)
+class Message:
+    """A bracketed notice such as `[alarm estop]` or `[reset]`, or `$` output."""
+    text: str
+
+
+Reply = Union[Ok, Err, Resend, Status, Banner, Message]
+
+_OK = re.compile(r"ok(?: N(\d+))? Q(\d+)$")
+_ERR = re.compile(r"err(?: N(\d+))? E(\d+)(?: (.*))?$")
+_RS = re.compile(r"rs N(\d+) E(\d+)$")
+_STATUS = re.compile(
+    r"<(Idle|Run|Hold|Alarm) X(-?\d+) Y(-?\d+) Q(\d+) N(\d+) S(\d+) P([01]) U(\d+) A(\d+)>$")
+
+
+def parse_reply(line: str) -> Optional[Reply]:
+    """One line from the board, without its line ending; None if unrecognised
+    (e.g. damaged on the wire: the caller ignores it and relies on time-outs)."""
+    line = line.strip()
+    m = _OK.match(line)
+    if m:
+        return Ok(int(m.group(1)) if m.group(1) else None, int(m.group(2)))
+    m = _STATUS.match(line)
+    if m:
+        g = m.groups()
+        return Status(g[0], int(g[1]), int(g[2]), int(g[3]), int(g[4]), int(g[5]),
+                      g[6] == "1", int(g[7]), int(g[8]))
+    m = _RS.match(line)
+    if m:
+        return Resend(int(m.group(1)), int(m.group(2)))
+    m = _ERR.match(line)
+    if m:
+        return Err(int(m.group(1)) if m.group(1) else None, int(m.group(2)), m.group(3) or "")
+    if line.startswith(BANNER_PREFIX) and line.endswith("ready"):
+        return Banner(line)
+    if line.startswith("[") and line.endswith("]") or line.startswith("$"):
+        return Message(line)
+    return None
+
+
+def seq_after(a: int, b: int) -> bool:
+    """True if 16-bit sequence number a comes after b (within half the range)."""
+    d = (a - b) % SEQ_MOD
+    return 0 < d < SEQ_MOD // 2
