@@ -1,0 +1,377 @@
+"""G-code front end of the plotter: parse a program into moves in machine mm.
+
+The subset (case-insensitive; one block per physical line):
+
+- Motion (modal): G0 rapid travel with the pen up at the rapid rate, G1 line,
+  G2/G3 clockwise/counter-clockwise arc with I/J (centre offset from the start,
+  always incremental) or R (positive: arc of at most 180 degrees, negative: the
+  longer arc). G2/G3 ending where they start with I/J make a full circle.
+- G4 P<seconds> dwell; G17 (XY plane; G18/G19 are rejected); G20/G21 inch/mm;
+  G90/G91 absolute/incremental; G92 X/Y sets the current position (an offset;
+  Z is accepted and has no effect); G94 units per minute; G61/G64 (path
+  control) are accepted and have no effect.
+- F feed (units per minute, modal; in the units in force after the line's
+  G20/G21, and kept as a speed when the units change later); M3 pen down, M5
+  pen up, M0 pause, M2/M30 end of program (the rest of the file is not read).
+- Z is the pen: after a Z word the pen is down when Z <= 0 and up when Z > 0
+  (Z is absolute in G90 and added to the last Z, 0 at power-on, in G91). A line
+  with Z and X/Y changes the pen first and then moves; with Z alone it only
+  changes the pen. G0 always travels with the pen up; the pen state set by the
+  program applies again to the following G1/G2/G3 moves.
+- N words, comments in parentheses and after ';', '%' lines, blank lines.
+
+Effects of one line happen in LinuxCNC's order: M3/M5, G4, modes (G17,
+G20/G21, G90/G91, ...), G92, motion, then M0/M2/M30. The whole program is
+parsed before anything is returned, so a bad line rejects the whole program
+with a GCodeError naming its physical line. Rejected as well: other letters,
+G and M codes, words without a number, numbers without a letter, a letter
+twice on a line (G excepted), two G codes of one modal group, non-ASCII or
+control characters, lines over 256 characters, a program without moves, and
+arcs LinuxCNC refuses (see gcode_geometry).
+"""
+
+from __future__ import annotations
+
+import math
+import re
+from dataclasses import dataclass, field
+from typing import Dict, List, Optional
+
+from . import gcode_geometry as geometry
+from .gcode_types import (PEN_DOWN, PEN_UP, Dwell, GCodeError, Item, Move, Pause,
+                          PenChange)
+from .gcode_limits import WorkArea, check_limits
+from .gcode_steps import StepMove, to_steps
+
+__all__ = ["GCodeError", "Move", "Dwell", "PenChange", "Pause", "Item", "WorkArea",
+           "StepMove", "check_limits", "to_steps", "parse", "decode_program",
+           "load_program", "moves_of", "DEFAULT_RAPID_RATE"]
+
+MAX_LINE_LENGTH = 256
+MAX_ABS_VALUE = 1e6
+DEFAULT_RAPID_RATE = 3000.0  # mm/min
+MM_PER_INCH = geometry.MM_PER_INCH
+SAME_POINT_MM = 1e-9
+
+_NUMBER = re.compile(r"[+-]?(?:\d+\.?\d*|\.\d+)")
+_LETTERS = frozenset("GMXYZIJRFPN")
+_AXES = ("X", "Y", "Z")
+
+# G codes in tenths (G61 -> 610), with their modal group.
+_MOTION, _NONMODAL, _PLANE, _DISTANCE, _FEED_MODE, _UNITS, _PATH = (
+    "motion", "non-modal", "plane", "distance", "feed mode", "units", "path control")
+_G_GROUPS = {0: _MOTION, 10: _MOTION, 20: _MOTION, 30: _MOTION, 40: _NONMODAL,
+             920: _NONMODAL, 170: _PLANE, 180: _PLANE, 190: _PLANE, 900: _DISTANCE,
+             910: _DISTANCE, 940: _FEED_MODE, 200: _UNITS, 210: _UNITS, 610: _PATH,
+             640: _PATH}
+_M_CODES = frozenset((0, 2, 3, 5, 30))
+
+
+@dataclass(frozen=True)
+class Word:
+    letter: str
+    value: float
+
+
+@dataclass
+class _State:
+    """Interpreter state while parsing one program (positions in machine mm)."""
+
+    x: float = 0.0
+    y: float = 0.0
+    offset_x: float = 0.0
+    offset_y: float = 0.0
+    z: float = 0.0
+    mm_per_unit: float = 1.0
+    absolute: bool = True
+    motion: Optional[int] = None
+    feed: float = 0.0
+    pen: str = PEN_UP
+    items: List[Item] = field(default_factory=list)
+
+
+def _g_name(code: int) -> str:
+    return f"G{code // 10}" + (f".{code % 10}" if code % 10 else "")
+
+
+_HINTS = {"[": "expressions in brackets are not supported",
+          "#": "parameters (#) are not supported",
+          "*": "checksums (*) are not supported",
+          "/": "block delete (/) is not supported"}
+
+
+def _bad_character(ch: str) -> str:
+    return _HINTS.get(ch, f"unexpected character {ch!r}")
+
+
+def tokenize_line(text: str, line: int) -> List[Word]:
+    """The words of one physical line; comments and blanks are dropped."""
+    if len(text) > MAX_LINE_LENGTH:
+        raise GCodeError(line, f"line too long ({len(text)} characters, "
+                               f"at most {MAX_LINE_LENGTH})")
+    for ch in text:
+        if not (ch == "\t" or " " <= ch <= "~"):
+            raise GCodeError(line, f"invalid character U+{ord(ch):04X} "
+                                   f"(only printable ASCII is allowed)")
+    if text.strip() == "%":
+        return []
+    words: List[Word] = []
+    i = 0
+    while i < len(text):
+        ch = text[i]
+        if ch in " \t":
+            i += 1
+        elif ch == ";":
+            break
+        elif ch == "(":
+            close = text.find(")", i + 1)
+            if close < 0:
+                raise GCodeError(line, "unclosed comment: '(' without ')'")
+            if "(" in text[i + 1:close]:
+                raise GCodeError(line, "nested comment: '(' inside a comment")
+            i = close + 1
+        elif ch == ")":
+            raise GCodeError(line, "')' without a comment to close")
+        elif ch.isalpha():
+            letter = ch.upper()
+            if letter not in _LETTERS:
+                raise GCodeError(line, f"unsupported word letter '{letter}'")
+            j = i + 1
+            while j < len(text) and text[j] in " \t":
+                j += 1
+            m = _NUMBER.match(text, j)
+            if m is None:
+                hint = _HINTS.get(text[j]) if j < len(text) else None
+                raise GCodeError(line, f"'{letter}' word without a number"
+                                       + (f" ({hint})" if hint else ""))
+            value = float(m.group())
+            if abs(value) > MAX_ABS_VALUE:
+                raise GCodeError(line, f"number out of range in '{letter}{m.group()}' "
+                                       f"(at most {MAX_ABS_VALUE:g})")
+            words.append(Word(letter, value))
+            i = m.end()
+        elif ch.isdigit() or ch in "+-.":
+            m = _NUMBER.match(text, i)
+            shown = m.group() if m else ch
+            raise GCodeError(line, f"number {shown!r} without a word letter")
+        else:
+            raise GCodeError(line, _bad_character(ch))
+    return words
+
+
+def _split_words(words: List[Word], line: int):
+    """(G codes by modal group, M code or None, other words by letter, N)."""
+    groups: Dict[str, int] = {}
+    others: Dict[str, float] = {}
+    n: Optional[int] = None
+    for index, w in enumerate(words):
+        if w.letter == "N":
+            if index != 0:
+                raise GCodeError(line, "N word (line number) must come first on the line")
+            if w.value < 0 or w.value != int(w.value):
+                raise GCodeError(line, "N word must be a whole number")
+            n = int(w.value)
+        elif w.letter == "G":
+            code = round(w.value * 10)
+            if abs(w.value * 10 - code) > 1e-6 or code not in _G_GROUPS:
+                raise GCodeError(line, f"unsupported G code G{w.value:g}")
+            if code in (180, 190):
+                raise GCodeError(line, f"{_g_name(code)}: only the XY plane (G17) "
+                                       f"is supported")
+            group = _G_GROUPS[code]
+            if group in groups:
+                what = ("two motion words" if group == _MOTION
+                        else f"two G codes of the {group} group")
+                raise GCodeError(line, f"{what} on one line: "
+                                       f"{_g_name(groups[group])} and {_g_name(code)}")
+            groups[group] = code
+        else:
+            if w.letter in others:
+                raise GCodeError(line, f"two {w.letter} words on one line")
+            others[w.letter] = w.value
+    m_code: Optional[int] = None
+    if "M" in others:
+        value = others.pop("M")
+        if value != int(value) or int(value) not in _M_CODES:
+            raise GCodeError(line, f"unsupported M code M{value:g}")
+        m_code = int(value)
+    return groups, m_code, others, n
+
+
+def _same_point(x1: float, y1: float, x2: float, y2: float) -> bool:
+    return abs(x1 - x2) <= SAME_POINT_MM and abs(y1 - y2) <= SAME_POINT_MM
+
+
+def _set_pen(st: _State, pen: str, line: int) -> None:
+    if pen != st.pen:
+        st.pen = pen
+        st.items.append(PenChange(line, pen))
+
+
+def _arc_centre(st: _State, words: Dict[str, float], tx: float, ty: float,
+                cw: bool, line: int):
+    """Centre (mm) and end point of an arc, validated as LinuxCNC does."""
+    u = st.mm_per_unit
+    tol = geometry.arc_tolerance(inches=u != 1.0)
+    has_ij = "I" in words or "J" in words
+    if "R" in words and has_ij:
+        raise GCodeError(line, "arc with both R and I/J words (mixed radius and centre format)")
+    if not has_ij and "R" not in words:
+        raise GCodeError(line, f"{'G2' if cw else 'G3'} arc needs I/J (centre) or R (radius)")
+    same = _same_point(tx, ty, st.x, st.y)
+    try:
+        if has_ij:
+            if same:
+                tx, ty = st.x, st.y  # full circle
+            centre = (st.x + words.get("I", 0.0) * u, st.y + words.get("J", 0.0) * u)
+            geometry.check_centre_arc((st.x, st.y), (tx, ty), centre, tol)
+        else:
+            if same:
+                raise geometry.ArcError("R-format arc ends where it starts "
+                                        "(use I/J for a full circle)")
+            centre = geometry.centre_from_radius((st.x, st.y), (tx, ty), words["R"] * u,
+                                                 cw, tol.zero_radius)
+    except geometry.ArcError as exc:
+        raise GCodeError(line, str(exc)) from None
+    return centre, tx, ty
+
+
+def _motion(st: _State, words: Dict[str, float], line: int, n: Optional[int],
+            rapid_rate: float) -> None:
+    """Execute the current motion mode with this line's axis words."""
+    u = st.mm_per_unit
+    code = st.motion
+    tx, ty = st.x, st.y
+    if "X" in words:
+        tx = words["X"] * u + st.offset_x if st.absolute else st.x + words["X"] * u
+    if "Y" in words:
+        ty = words["Y"] * u + st.offset_y if st.absolute else st.y + words["Y"] * u
+    new_pen = None
+    if "Z" in words:
+        st.z = words["Z"] * u if st.absolute else st.z + words["Z"] * u
+        new_pen = PEN_DOWN if st.z <= 0.0 else PEN_UP
+    lowered_after = code == 0 and new_pen == PEN_DOWN
+    if new_pen is not None and not lowered_after:
+        _set_pen(st, new_pen, line)
+    if code in (20, 30):
+        cw = code == 20
+        (cx, cy), tx, ty = _arc_centre(st, words, tx, ty, cw, line)
+        st.items.append(Move(line, "arc", st.x, st.y, tx, ty, st.feed, st.pen,
+                             cx=cx, cy=cy, cw=cw, n=n))
+    elif not _same_point(tx, ty, st.x, st.y):
+        rapid = code == 0
+        st.items.append(Move(line, "line", st.x, st.y, tx, ty,
+                             rapid_rate if rapid else st.feed,
+                             PEN_UP if rapid else st.pen, rapid=rapid, n=n))
+    st.x, st.y = tx, ty
+    if lowered_after:
+        _set_pen(st, PEN_DOWN, line)
+
+
+def _execute(st: _State, words: List[Word], line: int, rapid_rate: float) -> bool:
+    """Apply one line to the state; True when it ends the program."""
+    groups, m_code, o, n = _split_words(words, line)
+    u = st.mm_per_unit
+    if "F" in o:
+        if o["F"] < 0:
+            raise GCodeError(line, "negative feed rate")
+    if m_code == 3:
+        _set_pen(st, PEN_DOWN, line)
+    elif m_code == 5:
+        _set_pen(st, PEN_UP, line)
+    nonmodal = groups.get(_NONMODAL)
+    if "P" in o and nonmodal != 40 and groups.get(_PATH) != 640:
+        raise GCodeError(line, "P word without G4 (dwell) to use it")
+    if nonmodal == 40:
+        if "P" not in o:
+            raise GCodeError(line, "G4 dwell needs a P word (seconds)")
+        if o["P"] < 0:
+            raise GCodeError(line, "G4 dwell with a negative time")
+        st.items.append(Dwell(line, o["P"]))
+    if _UNITS in groups:
+        u = st.mm_per_unit = MM_PER_INCH if groups[_UNITS] == 200 else 1.0
+    if "F" in o:
+        st.feed = o["F"] * u
+    if _DISTANCE in groups:
+        st.absolute = groups[_DISTANCE] == 900
+    has_axis = any(a in o for a in _AXES)
+    arc_words = [w for w in ("I", "J", "R") if w in o]
+    motion_word = groups.get(_MOTION)
+    if nonmodal == 920:
+        if motion_word is not None:
+            raise GCodeError(line, f"G92 and {_g_name(motion_word)} on one line "
+                                   f"both use the axis words")
+        if not has_axis:
+            raise GCodeError(line, "G92 without any axis word (X, Y or Z)")
+        if arc_words:
+            raise GCodeError(line, f"{arc_words[0]} word without an arc (G2/G3) to use it")
+        if "X" in o:
+            st.offset_x = st.x - o["X"] * u
+        if "Y" in o:
+            st.offset_y = st.y - o["Y"] * u
+    else:
+        if motion_word is not None:
+            st.motion = motion_word
+        arc_mode = st.motion in (20, 30)
+        runs = motion_word is not None or has_axis or (arc_mode and bool(arc_words))
+        if arc_words and not (arc_mode and runs):
+            raise GCodeError(line, f"{arc_words[0]} word without an arc (G2/G3) to use it")
+        if has_axis and st.motion is None:
+            raise GCodeError(line, "axis words without a motion mode (G0, G1, G2 or G3)")
+        if runs:
+            if st.motion != 0 and st.feed <= 0.0:
+                raise GCodeError(line, f"no feed rate for {_g_name(st.motion)}: "
+                                       f"set a positive F first")
+            if has_axis or arc_mode:
+                _motion(st, o, line, n, rapid_rate)
+    if m_code == 0:
+        st.items.append(Pause(line))
+    return m_code in (2, 30)
+
+
+def parse(text: str, rapid_rate: float = DEFAULT_RAPID_RATE) -> List[Item]:
+    """Parse a whole program; raise GCodeError for the first bad line.
+
+    Returns the moves, dwells, pen changes and pauses in order, in machine
+    coordinates (mm, mm/min) from the power-on origin, starting at (0, 0)
+    with the pen up.
+    """
+    if not (math.isfinite(rapid_rate) and rapid_rate > 0.0):
+        raise ValueError(f"rapid rate must be positive, not {rapid_rate!r}")
+    st = _State()
+    lines = text.split("\n")
+    if lines and lines[-1] == "":
+        lines.pop()
+    last_line = max(len(lines), 1)
+    blank = True
+    for number, raw in enumerate(lines, start=1):
+        if raw.endswith("\r"):
+            raw = raw[:-1]
+        words = tokenize_line(raw, number)
+        blank = blank and not words
+        if words and _execute(st, words, number, rapid_rate):
+            last_line = number
+            break
+    if not any(isinstance(item, Move) for item in st.items):
+        raise GCodeError(last_line, "empty program: no G-code words"
+                         if blank else "program makes no moves")
+    return st.items
+
+
+def decode_program(data: bytes) -> str:
+    """The text of a program file; non-ASCII bytes are a GCodeError."""
+    try:
+        return data.decode("ascii")
+    except UnicodeDecodeError as exc:
+        line = data.count(b"\n", 0, exc.start) + 1
+        raise GCodeError(line, f"invalid byte 0x{data[exc.start]:02x} "
+                               f"(only printable ASCII is allowed)") from None
+
+
+def load_program(data: bytes, rapid_rate: float = DEFAULT_RAPID_RATE) -> List[Item]:
+    """decode_program then parse."""
+    return parse(decode_program(data), rapid_rate)
+
+
+def moves_of(items: List[Item]) -> List[Move]:
+    return [item for item in items if isinstance(item, Move)]

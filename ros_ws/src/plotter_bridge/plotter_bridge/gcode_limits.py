@@ -1,0 +1,53 @@
+"""Soft limits: check that a parsed program stays inside the work area."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Iterable
+
+from .gcode_types import GCodeError, Item, Move
+from .gcode_geometry import arc_extreme_points
+
+# Points this close outside the area (mm) still count as inside: rounding noise.
+LIMIT_EPSILON = 1e-9
+
+
+@dataclass(frozen=True)
+class WorkArea:
+    """Reachable area in mm, in machine coordinates from the power-on origin."""
+
+    x_min: float = 0.0
+    x_max: float = 200.0
+    y_min: float = 0.0
+    y_max: float = 200.0
+
+    def contains(self, x: float, y: float) -> bool:
+        return (self.x_min - LIMIT_EPSILON <= x <= self.x_max + LIMIT_EPSILON
+                and self.y_min - LIMIT_EPSILON <= y <= self.y_max + LIMIT_EPSILON)
+
+    def describe(self) -> str:
+        return (f"X {self.x_min:g}..{self.x_max:g} mm, "
+                f"Y {self.y_min:g}..{self.y_max:g} mm")
+
+
+def check_limits(items: Iterable[Item], limits: WorkArea = WorkArea()) -> None:
+    """Raise GCodeError for the first move that leaves the work area.
+
+    Lines are checked at their end points (each start is the previous end, or
+    the origin); arcs at their end points and at the extreme points of the
+    quadrants they cross, so an arc bulging outside is caught even when both
+    its ends are inside.
+    """
+    for item in items:
+        if not isinstance(item, Move):
+            continue
+        if not limits.contains(item.x, item.y):
+            raise GCodeError(item.line, f"move to X{item.x:.4f} Y{item.y:.4f} is outside "
+                                        f"the work area ({limits.describe()})")
+        if item.kind != "arc":
+            continue
+        for px, py in arc_extreme_points((item.sx, item.sy), (item.x, item.y),
+                                         (item.cx, item.cy), bool(item.cw)):
+            if not limits.contains(px, py):
+                raise GCodeError(item.line, f"arc leaves the work area at X{px:.4f} "
+                                            f"Y{py:.4f} ({limits.describe()})")

@@ -1,0 +1,147 @@
+"""Conversion of parsed moves (mm) to integer motor steps for the firmware.
+
+Rounding rules, chosen so that errors never accumulate:
+
+- Every end point is rounded to whole steps once, from its absolute machine
+  coordinate (half steps round up). A move's start is the previous move's
+  rounded end, so the step displacements of a program always add up to the
+  rounded final position, however many small incremental moves it has.
+- An arc's end stays that rounded absolute end. Its centre is sent as an
+  integer offset (i, j) from the rounded start. The exact centre is moved onto
+  the perpendicular bisector of the rounded start and end (so the arc stays a
+  circle through both); of the integer points around it, those whose radii to
+  start and end differ by less than one step qualify (the firmware tolerates
+  an end that is off the circle by less than one step), and the one with the
+  smallest largest error is taken, the error being the larger of that radius
+  difference and the distance between the middle of the drawn arc and the
+  middle of the exact arc. ``radius_error`` reports the remaining difference,
+  |end - centre| - |start - centre| in steps.
+- An arc of more than 180 degrees is sent as two arcs, split at the middle of
+  the exact arc (that point rounded once, like every end point), so that the
+  rule above applies to each half. A full circle is one arc with end == start
+  and its centre rounded.
+- An arc whose ends round to the same step (shorter than a step) becomes a
+  zero-length line.
+
+Dwell, PenChange and Pause items pass through unchanged, in order.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import Iterable, List, Optional, Tuple, Union
+
+from .gcode_types import Dwell, Item, Move, Pause, PenChange
+from .gcode_geometry import Point, arc_midpoint, arc_sweep
+
+
+@dataclass(frozen=True)
+class StepMove:
+    """A move in steps: absolute end (x, y), displacement (dx, dy) from the start."""
+
+    line: int
+    kind: str
+    x: int
+    y: int
+    dx: int
+    dy: int
+    feed: float
+    pen: str
+    rapid: bool = False
+    i: Optional[int] = None
+    j: Optional[int] = None
+    cw: Optional[bool] = None
+    radius_error: float = 0.0
+
+
+StepItem = Union[StepMove, Dwell, PenChange, Pause]
+
+
+def round_step(value: float) -> int:
+    """Nearest integer, halves rounded up (the same way for every coordinate)."""
+    return math.floor(value + 0.5)
+
+
+def _radius_difference(c: Tuple[int, int], s: Tuple[int, int], e: Tuple[int, int]) -> float:
+    return math.hypot(e[0] - c[0], e[1] - c[1]) - math.hypot(s[0] - c[0], s[1] - c[1])
+
+
+def integer_centre(centre: Point, s: Tuple[int, int], e: Tuple[int, int], cw: bool,
+                   exact_mid: Point) -> Tuple[int, int]:
+    """Integer centre of an arc of at most 180 degrees between rounded ends s != e.
+
+    ``centre`` and ``exact_mid`` are the exact arc's centre and middle point
+    (steps). Candidates are the integer points around the exact centre moved
+    onto the perpendicular bisector of s and e. Of those whose radii to s and
+    e differ by less than a step, the one with the smallest largest error is
+    taken: the error is the larger of that radius difference and the distance
+    between the middle of the drawn arc and the exact one.
+    """
+    mx, my = (s[0] + e[0]) / 2.0, (s[1] + e[1]) / 2.0
+    ux, uy = float(e[1] - s[1]), float(s[0] - e[0])  # normal of the chord
+    norm = math.hypot(ux, uy)
+    ux, uy = ux / norm, uy / norm
+    along = (centre[0] - mx) * ux + (centre[1] - my) * uy
+    bx, by = math.floor(mx + along * ux), math.floor(my + along * uy)
+    candidates = [(bx + a, by + b) for a in range(-1, 3) for b in range(-1, 3)]
+
+    def score(c: Tuple[int, int]) -> Tuple[bool, float, float]:
+        diff = abs(_radius_difference(c, s, e))
+        if c == s or c == e:
+            return (True, math.inf, math.inf)
+        shape = math.dist(arc_midpoint(s, e, c, cw), exact_mid)
+        return (diff >= 1.0, max(diff, shape), math.dist(c, centre))
+
+    return min(candidates, key=score)
+
+
+def _piece(move: Move, s: Tuple[int, int], e: Tuple[int, int], centre: Point,
+           exact_mid: Point) -> StepMove:
+    """One arc of at most 180 degrees between rounded ends s and e."""
+    common = dict(line=move.line, x=e[0], y=e[1], dx=e[0] - s[0], dy=e[1] - s[1],
+                  feed=move.feed, pen=move.pen, rapid=move.rapid)
+    if s == e:
+        return StepMove(kind="line", **common)
+    c = integer_centre(centre, s, e, bool(move.cw), exact_mid)
+    return StepMove(kind="arc", i=c[0] - s[0], j=c[1] - s[1], cw=move.cw,
+                    radius_error=_radius_difference(c, s, e), **common)
+
+
+def _convert(move: Move, spm: float) -> List[StepMove]:
+    s = (round_step(move.sx * spm), round_step(move.sy * spm))
+    e = (round_step(move.x * spm), round_step(move.y * spm))
+    if move.kind != "arc":
+        return [StepMove(move.line, "line", e[0], e[1], e[0] - s[0], e[1] - s[1],
+                         move.feed, move.pen, move.rapid)]
+    centre = (move.cx * spm, move.cy * spm)
+    if move.is_full_circle:
+        c = (round_step(centre[0]), round_step(centre[1]))
+        return [StepMove(move.line, "arc", e[0], e[1], 0, 0, move.feed, move.pen,
+                         move.rapid, i=c[0] - s[0], j=c[1] - s[1], cw=move.cw)]
+    cw = bool(move.cw)
+    start, end = (move.sx * spm, move.sy * spm), (move.x * spm, move.y * spm)
+    middle = arc_midpoint(start, end, centre, cw)
+    if arc_sweep(start, end, centre, cw) <= math.pi:
+        return [_piece(move, s, e, centre, middle)]
+    # Longer arcs go as two halves, split at the exact arc's middle.
+    m = (round_step(middle[0]), round_step(middle[1]))
+    return [_piece(move, s, m, centre, arc_midpoint(start, middle, centre, cw)),
+            _piece(move, m, e, centre, arc_midpoint(middle, end, centre, cw))]
+
+
+def to_steps(items: Iterable[Item], steps_per_mm: float) -> List[StepItem]:
+    """Moves rounded to steps (see the module doc); other items unchanged.
+
+    A move gives one StepMove, except an arc of more than 180 degrees (not a
+    full circle), which gives two.
+    """
+    if not math.isfinite(steps_per_mm) or steps_per_mm <= 0.0:
+        raise ValueError(f"steps per mm must be positive, not {steps_per_mm!r}")
+    out: List[StepItem] = []
+    for item in items:
+        if isinstance(item, Move):
+            out.extend(_convert(item, steps_per_mm))
+        else:
+            out.append(item)
+    return out

@@ -1,0 +1,84 @@
+"""Data types of the G-code front end: errors and the items a program becomes.
+
+All coordinates are machine coordinates in millimetres, measured from the
+power-on origin (after G92 offsets and inch conversion); feeds are mm/min.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Optional, Union
+
+PEN_UP = "up"
+PEN_DOWN = "down"
+
+
+class GCodeError(ValueError):
+    """A program is rejected; ``line`` is the 1-based physical line of the file."""
+
+    def __init__(self, line: int, message: str) -> None:
+        super().__init__(line, message)
+        self.line = line
+        self.message = message
+
+    def __str__(self) -> str:
+        return f"line {self.line}: {self.message}"
+
+
+@dataclass(frozen=True)
+class Move:
+    """One straight line or circular arc from (sx, sy) to (x, y).
+
+    ``kind`` is ``"line"`` or ``"arc"``. Arcs have their centre (cx, cy) and
+    direction (``cw`` True for G2, False for G3); an arc whose end equals its
+    start is a full circle. ``rapid`` moves (G0) always travel with the pen up
+    at the rapid rate. ``n`` is the block's N word, if it had one.
+    """
+
+    line: int
+    kind: str
+    sx: float
+    sy: float
+    x: float
+    y: float
+    feed: float
+    pen: str
+    rapid: bool = False
+    cx: Optional[float] = None
+    cy: Optional[float] = None
+    cw: Optional[bool] = None
+    n: Optional[int] = None
+
+    @property
+    def is_full_circle(self) -> bool:
+        return self.kind == "arc" and self.x == self.sx and self.y == self.sy
+
+
+@dataclass(frozen=True)
+class Dwell:
+    """G4: wait ``seconds`` before the next item."""
+
+    line: int
+    seconds: float
+
+
+@dataclass(frozen=True)
+class PenChange:
+    """The program's pen state changes to ``pen`` ("up" or "down") here.
+
+    Every Move also carries the pen position it is made with, so a consumer
+    may ignore these except where no move follows (e.g. a final M5).
+    """
+
+    line: int
+    pen: str
+
+
+@dataclass(frozen=True)
+class Pause:
+    """M0: stop until the operator resumes."""
+
+    line: int
+
+
+Item = Union[Move, Dwell, PenChange, Pause]

@@ -1,0 +1,145 @@
+"""Helpers shared by the G-code tests (no ROS needed).
+
+- Puts ros_ws/src/plotter_bridge on sys.path, so ``plotter_bridge.gcode``
+  imports from the working tree.
+- Locates LinuxCNC's acceptance programs in shared/acceptance/linuxcnc.
+- Evaluates LinuxCNC bracket expressions (``[25.00 - [0.0099 * sqrt[2]]]``),
+  which are outside the plotter's G-code subset, into plain numbers.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import io
+import json
+import math
+import os
+import re
+import sys
+from pathlib import Path
+from typing import List
+
+REPO_ROOT = Path(__file__).resolve().parent.parent
+BRIDGE_SRC = REPO_ROOT / "ros_ws" / "src" / "plotter_bridge"
+if str(BRIDGE_SRC) not in sys.path:
+    sys.path.insert(0, str(BRIDGE_SRC))
+
+DATA_DIR = Path(__file__).resolve().parent / "data" / "gcode"
+
+
+def acceptance_dir() -> Path:
+    """shared/acceptance/linuxcnc beside the repository (or $PLOTTER_ACCEPTANCE_DIR)."""
+    override = os.environ.get("PLOTTER_ACCEPTANCE_DIR")
+    if override:
+        return Path(override)
+    for base in (REPO_ROOT.parent / "shared", Path("/work/shared")):
+        candidate = base / "acceptance" / "linuxcnc"
+        if candidate.is_dir():
+            return candidate
+    return REPO_ROOT.parent / "shared" / "acceptance" / "linuxcnc"
+
+
+# ------------------------------------------------------- bracket expressions
+
+_TOKEN = re.compile(r"\s*(?:(\d+\.?\d*|\.\d+)|(sqrt)|(.))", re.IGNORECASE)
+
+
+class _Expr:
+    """Recursive-descent evaluator for + - * /, unary minus, sqrt[...] and [...]."""
+
+    def __init__(self, text: str) -> None:
+        self.tokens = [m.group(0).strip().lower() for m in _TOKEN.finditer(text)
+                       if m.group(0).strip()]
+        self.pos = 0
+
+    def peek(self) -> str:
+        return self.tokens[self.pos] if self.pos < len(self.tokens) else ""
+
+    def take(self, expected: str = None) -> str:
+        tok = self.peek()
+        if expected is not None and tok != expected:
+            raise ValueError(f"expected {expected!r}, found {tok!r}")
+        self.pos += 1
+        return tok
+
+    def expr(self) -> float:
+        value = self.term()
+        while self.peek() in ("+", "-"):
+            value = value + self.term() if self.take() == "+" else value - self.term()
+        return value
+
+    def term(self) -> float:
+        value = self.factor()
+        while self.peek() in ("*", "/"):
+            value = value * self.factor() if self.take() == "*" else value / self.factor()
+        return value
+
+    def factor(self) -> float:
+        tok = self.peek()
+        if tok == "-":
+            self.take()
+            return -self.factor()
+        if tok == "sqrt":
+            self.take()
+            return math.sqrt(self.bracket())
+        if tok == "[":
+            return self.bracket()
+        self.take()
+        return float(tok)
+
+    def bracket(self) -> float:
+        self.take("[")
+        value = self.expr()
+        self.take("]")
+        return value
+
+
+def evaluate(expression: str) -> float:
+    """Value of one bracket expression such as ``[0.9985 * 100]``."""
+    parser = _Expr(expression)
+    value = parser.bracket()
+    if parser.pos != len(parser.tokens):
+        raise ValueError(f"trailing text in {expression!r}")
+    return value
+
+
+def substitute_expressions(text: str) -> str:
+    """Replace every top-level ``[...]`` expression by its value (12 decimals)."""
+    out: List[str] = []
+    i = 0
+    while i < len(text):
+        if text[i] != "[":
+            out.append(text[i])
+            i += 1
+            continue
+        depth, j = 0, i
+        while True:
+            depth += {"[": 1, "]": -1}.get(text[j], 0)
+            if depth == 0:
+                break
+            j += 1
+        number = f"{evaluate(text[i:j + 1]):.12f}".rstrip("0").rstrip(".")
+        out.append(number)
+        i = j + 1
+    return "".join(out)
+
+
+def expected_message(ngc_text: str) -> str:
+    """LinuxCNC's message on the first line of a bad/*.ngc file."""
+    first = ngc_text.splitlines()[0].strip()
+    if first.startswith(";"):
+        return first[1:].strip()
+    return first.strip("()").strip()
+
+
+# ------------------------------------------------------- running the CLI
+
+def check_json(path: Path, *extra: str) -> List[dict]:
+    """``plotter check PATH --json`` parsed, run in-process; asserts exit code 0."""
+    from plotter_bridge import cli
+
+    out, err = io.StringIO(), io.StringIO()
+    with contextlib.redirect_stdout(out), contextlib.redirect_stderr(err):
+        code = cli.main(["check", str(path), "--json", *extra])
+    assert code == 0, f"plotter check rejected {path}: {err.getvalue()}"
+    return [json.loads(line) for line in out.getvalue().splitlines()]
