@@ -158,6 +158,7 @@ def obtain_rs274(cache: Path) -> Rs274:
             _unpack(sorted(debs.glob("*.deb")), partial)
             shutil.rmtree(tree, ignore_errors=True)
             partial.rename(tree)
+            shutil.rmtree(debs, ignore_errors=True)
         env = _library_env(tree)
         missing = _missing_libraries(binary, env)
         if missing:
@@ -168,15 +169,16 @@ def obtain_rs274(cache: Path) -> Rs274:
             extra.mkdir(exist_ok=True)
             _apt_download(wanted, extra)
             _unpack(sorted(extra.glob("*.deb")), tree)
+            shutil.rmtree(extra, ignore_errors=True)
             env = _library_env(tree)
             missing = _missing_libraries(binary, env)
             if missing:
                 raise Unavailable(f"rs274 still misses libraries: {missing}")
-    table = cache / "EMPTY.tbl"
-    table.write_text("")
+        table = cache / "EMPTY.tbl"
+        table.write_text("")
+        probe = cache / "probe.ngc"
+        probe.write_text("G21 F100\nG1 X1\nM2\n")
     tool = Rs274(binary, env, table)
-    probe = cache / "probe.ngc"
-    probe.write_text("G21 F100\nG1 X1\nM2\n")
     result = tool.run(probe)
     if not result.ok or not any(name == "STRAIGHT_FEED" for name, _ in result.calls):
         raise Unavailable(f"rs274 does not run: {result.message or result.calls[:3]}")
