@@ -32,6 +32,7 @@ import re
 import shutil
 import subprocess
 import sys
+import tempfile
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Dict, List, Optional, Tuple
@@ -59,6 +60,7 @@ LIBRARY_PACKAGES = {
     "libz.so.1": "zlib1g",
 }
 PREFIX = "G0 Z1\n"
+RUN_LOCK = Path(tempfile.gettempdir()) / "plotter-rs274.lock"
 
 
 def acceptance_files(folder: str) -> List[Path]:
@@ -87,9 +89,17 @@ class Rs274:
         self.binary, self.env, self.table = binary, env, table
 
     def run(self, path: Path) -> Rs274Result:
-        proc = subprocess.run([str(self.binary), "-t", str(self.table), "-g", str(path)],
-                              stdin=subprocess.DEVNULL, capture_output=True, text=True,
-                              env=self.env, timeout=60, check=False)
+        # Concurrent rs274 processes share LinuxCNC's shared memory and now and
+        # then die of SIGBUS: run one at a time on this machine, retry a crash.
+        with open(RUN_LOCK, "a") as lock:
+            fcntl.flock(lock, fcntl.LOCK_EX)
+            for _ in range(3):
+                proc = subprocess.run(
+                    [str(self.binary), "-t", str(self.table), "-g", str(path)],
+                    stdin=subprocess.DEVNULL, capture_output=True, text=True,
+                    env=self.env, timeout=60, check=False)
+                if proc.returncode >= 0:
+                    break
         calls = []
         for line in proc.stdout.splitlines():
             m = _CALL.match(line)
