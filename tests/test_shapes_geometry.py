@@ -31,6 +31,7 @@ from plotter_shapes.geometry import (  # noqa: E402
     cone,
     diamond,
     figure_to_gcode,
+    goal_program,
     line,
     resolve_placement,
     reverse,
@@ -529,3 +530,22 @@ def test_figure_is_immutable_and_comparable():
     assert figure == Figure((Stroke((Line(0, 0, 1, 1),)),), "x")
     with pytest.raises(AttributeError):
         figure.name = "y"  # type: ignore[misc]
+
+
+def test_goal_program_applies_the_message_defaults():
+    name, gcode = goal_program("Star", 0.0, 0.0, 0.0)
+    assert name == "star"
+    assert gcode == figure_to_gcode(star(100, 100, 40), 1500, "star")
+    name, gcode = goal_program(
+        "car", 50.0, 60.0, 30.0, False, True, 900.0, default_feed=1200, default_size=10
+    )
+    assert name == "car reversed"
+    assert gcode == figure_to_gcode(reverse(car(50, 60, 30)), 900, "car reversed")
+    _, gcode = goal_program("circle", 0.0, 0.0, 0.0, default_size=25, default_centre=(70, 80))
+    assert "G0 X95.0000 Y80.0000" in gcode
+    with pytest.raises(ShapeError) as err:
+        goal_program("hexagon", 0.0, 0.0, 0.0)
+    assert err.value.field == "shape"
+    with pytest.raises(ShapeError) as err:
+        goal_program("star", 0.0, 0.0, float("nan"))
+    assert err.value.field == "size"

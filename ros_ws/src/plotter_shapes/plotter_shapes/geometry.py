@@ -166,6 +166,8 @@ __all__ = [
     "figure_to_gcode",
     "build_shape",
     "resolve_placement",
+    "goal_program",
+    "DEFAULT_FEED_MM_MIN",
 ]
 
 #: Work area of the reference board's plotting table (mm, x by y).
@@ -174,6 +176,8 @@ WORK_AREA_MM: tuple[float, float] = (200.0, 200.0)
 DEFAULT_CENTRE_MM: tuple[float, float] = (WORK_AREA_MM[0] / 2.0, WORK_AREA_MM[1] / 2.0)
 #: Size used when the size is 0 ("not given").
 DEFAULT_SIZE_MM: float = 40.0
+#: Feed used when a request gives none (mm/min).
+DEFAULT_FEED_MM_MIN: float = 1500.0
 #: Smallest size accepted: below 1 mm a pen line cannot show a figure.
 MIN_SIZE_MM: float = 1.0
 #: Largest size accepted (mm).
@@ -822,3 +826,38 @@ def figure_to_gcode(figure: Figure, feed_mm_min: float, name: str = "") -> list[
     lines.append("M5")
     lines.append("M2")
     return lines
+
+
+def goal_program(
+    shape: str,
+    x: float,
+    y: float,
+    size: float,
+    clockwise: bool = False,
+    reverse: bool = False,
+    feed: float = 0.0,
+    x2: float = 0.0,
+    y2: float = 0.0,
+    start_angle: float = 0.0,
+    end_angle: float = 0.0,
+    *,
+    default_feed: float = DEFAULT_FEED_MM_MIN,
+    default_size: float = DEFAULT_SIZE_MM,
+    default_centre: tuple[float, float] = DEFAULT_CENTRE_MM,
+) -> tuple[str, list[str]]:
+    """The G-code program for one shape request given as message fields
+    (plotter_interfaces/msg/ShapeGoal): applies ``resolve_placement``,
+    validates and builds the figure, and writes it at ``feed`` (0 = the
+    ``default_feed``). Returns (program name, G-code lines); the name, e.g.
+    ``"car reversed"``, is also the program's leading comment. Raises
+    ShapeError naming the bad field.
+    """
+    x, y, size = resolve_placement(
+        shape, x, y, size, default_size=default_size, default_centre=default_centre
+    )
+    figure = build_shape(
+        shape, x, y, size, clockwise, reverse, feed, x2, y2, start_angle, end_angle
+    )
+    feed = float(feed) if feed > 0.0 else default_feed
+    name = _normalise_name(shape) + (" reversed" if reverse else "")
+    return name, figure_to_gcode(figure, feed, name)
