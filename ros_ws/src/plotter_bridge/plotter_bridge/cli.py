@@ -184,6 +184,7 @@ def build_parser(commands: Optional[Dict[str, Command]] = None) -> argparse.Argu
 
 
 def main(argv: Optional[Sequence[str]] = None) -> int:
+    from . import cli_run  # noqa: F401  (registers stream, draw, watch)
     parser = build_parser()
     try:
         args = parser.parse_args(argv)

@@ -35,7 +35,7 @@ from __future__ import annotations
 import math
 import re
 from dataclasses import dataclass, field
-from typing import Dict, List, Optional
+from typing import Tuple, Dict, List, Optional
 
 from . import gcode_geometry as geometry
 from .gcode_types import (PEN_DOWN, PEN_UP, Dwell, GCodeError, Item, Move, Pause,
@@ -329,16 +329,17 @@ def _execute(st: _State, words: List[Word], line: int, rapid_rate: float) -> boo
     return m_code in (2, 30)
 
 
-def parse(text: str, rapid_rate: float = DEFAULT_RAPID_RATE) -> List[Item]:
+def parse(text: str, rapid_rate: float = DEFAULT_RAPID_RATE,
+          start: Tuple[float, float] = (0.0, 0.0)) -> List[Item]:
     """Parse a whole program; raise GCodeError for the first bad line.
 
     Returns the moves, dwells, pen changes and pauses in order, in machine
-    coordinates (mm, mm/min) from the power-on origin, starting at (0, 0)
-    with the pen up.
+    coordinates (mm, mm/min) from the power-on origin, starting at `start`
+    (where the pen is when the program begins) with the pen up.
     """
     if not (math.isfinite(rapid_rate) and rapid_rate > 0.0):
         raise ValueError(f"rapid rate must be positive, not {rapid_rate!r}")
-    st = _State()
+    st = _State(x=float(start[0]), y=float(start[1]))
     lines = text.split("\n")
     if lines and lines[-1] == "":
         lines.pop()
@@ -368,9 +369,10 @@ def decode_program(data: bytes) -> str:
                                f"(only printable ASCII is allowed)") from None
 
 
-def load_program(data: bytes, rapid_rate: float = DEFAULT_RAPID_RATE) -> List[Item]:
+def load_program(data: bytes, rapid_rate: float = DEFAULT_RAPID_RATE,
+                 start: Tuple[float, float] = (0.0, 0.0)) -> List[Item]:
     """decode_program then parse."""
-    return parse(decode_program(data), rapid_rate)
+    return parse(decode_program(data), rapid_rate, start)
 
 
 def moves_of(items: List[Item]) -> List[Move]:

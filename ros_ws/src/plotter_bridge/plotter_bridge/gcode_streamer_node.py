@@ -12,8 +12,7 @@ from __future__ import annotations
 import math
 import queue
 import threading
-from dataclasses import dataclass
-from typing import List, Optional
+from typing import Optional
 
 import rclpy
 from rclpy.action import ActionClient, ActionServer, CancelResponse, GoalResponse
@@ -24,37 +23,19 @@ from rcl_interfaces.msg import ParameterDescriptor
 from std_msgs.msg import String
 
 from plotter_interfaces.action import RunProgram, StreamCommands
+from plotter_interfaces.msg import BoardState
+from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
 
-from .commands import BoardCommand, to_commands
-from .gcode import load_program
-from .gcode_limits import WorkArea, check_limits
-from .gcode_steps import to_steps
+from .gcode_limits import WorkArea
 from .gcode_types import GCodeError
+from .program import StreamerConfig, compile_program
 
-MAX_PROGRAM_BYTES = 4 * 1024 * 1024
 DEFAULT_NAMESPACE = "/plotter"   # `-r __ns:=/plotter2` runs a second plotter beside it
 
 
-@dataclass(frozen=True)
-class StreamerConfig:
-    steps_per_mm: float = 80.0
-    rapid_feed: float = 6000.0
-    area: WorkArea = WorkArea()
-
-
-def compile_program(text: str, config: StreamerConfig) -> List[BoardCommand]:
-    """G-code text to board commands; raises GCodeError naming the line."""
-    data = text.encode("utf-8", "surrogateescape") if isinstance(text, str) else text
-    if len(data) > MAX_PROGRAM_BYTES:
-        raise GCodeError(0, f"program too large: {len(data)} bytes (limit {MAX_PROGRAM_BYTES})")
-    items = load_program(data, rapid_rate=config.rapid_feed)
-    check_limits(items, config.area)
-    return to_commands(to_steps(items, config.steps_per_mm), config.steps_per_mm, config.rapid_feed)
-
-
 class GCodeStreamer(Node):
-    def __init__(self) -> None:
-        super().__init__("gcode_streamer", namespace=DEFAULT_NAMESPACE)
+    def __init__(self, *, namespace: str = DEFAULT_NAMESPACE, **kwargs) -> None:
+        super().__init__("gcode_streamer", namespace=namespace, **kwargs)
         d = ParameterDescriptor
         self.declare_parameter("steps_per_mm", 80.0, d(description="motor steps per millimetre, both axes"))
         self.declare_parameter("rapid_feed", 6000.0, d(description="G0 travel rate, mm/min"))
@@ -71,6 +52,11 @@ class GCodeStreamer(Node):
                                     goal_callback=lambda _: GoalResponse.ACCEPT,
                                     cancel_callback=lambda _: CancelResponse.ACCEPT,
                                     callback_group=group)
+        latched = QoSProfile(depth=1, reliability=ReliabilityPolicy.RELIABLE,
+                             durability=DurabilityPolicy.TRANSIENT_LOCAL)
+        self._board: Optional[BoardState] = None
+        self._board_changed = threading.Condition()
+        self.create_subscription(BoardState, "state", self._on_state, latched, callback_group=group)
         self._busy = threading.Lock()      # one program on the board at a time
         self._last_xy = (0.0, 0.0)
         self._topic_jobs: "queue.Queue[str]" = queue.Queue()
@@ -85,12 +71,26 @@ class GCodeStreamer(Node):
             raise ValueError(f"bad gcode_streamer parameters: {values}")
         return StreamerConfig(values[0], values[1], WorkArea(values[2], values[3], values[4], values[5]))
 
+    def _on_state(self, msg: BoardState) -> None:
+        with self._board_changed:
+            self._board = msg
+            self._board_changed.notify_all()
+
+    def _board_position(self, timeout: float = 10.0) -> Optional[tuple]:
+        """Where the pen is now (steps), from the bridge's state; None if unknown."""
+        with self._board_changed:
+            self._board_changed.wait_for(lambda: self._board is not None, timeout)
+            b = self._board
+        if b is None or b.state == BoardState.DISCONNECTED:
+            return None
+        return (b.x_steps, b.y_steps)
+
     # --- programs from the topic ---------------------------------------------
     def _on_program(self, msg: String) -> None:
         self._topic_jobs.put(msg.data)
 
     def _topic_worker(self) -> None:
-        while rclpy.ok():
+        while self.context.ok():
             try:
                 text = self._topic_jobs.get(timeout=0.5)
             except queue.Empty:
@@ -116,15 +116,18 @@ class GCodeStreamer(Node):
 
     def run(self, text: str, name: str, goal_handle) -> tuple:
         """Run one program; returns (success, message, lines done)."""
-        try:
-            commands = compile_program(text, self.config)
-        except GCodeError as exc:
-            self.get_logger().error(f"{name}: {exc}")
-            return False, str(exc), 0
-        total_lines = max((c.line for c in commands), default=0)
-        if not commands:
-            return True, "nothing to do", 0
         with self._busy:
+            start = self._board_position()
+            if start is None:
+                return False, "board not connected (no state from serial_bridge)", 0
+            try:
+                commands = compile_program(text, self.config, start)
+            except GCodeError as exc:
+                self.get_logger().error(f"{name}: {exc}")
+                return False, str(exc), 0
+            total_lines = max((c.line for c in commands), default=0)
+            if not commands:
+                return True, "nothing to do", 0
             if not self._bridge.wait_for_server(timeout_sec=10.0):
                 return False, "serial bridge not available (stream_commands)", 0
             goal = StreamCommands.Goal()
@@ -156,6 +159,7 @@ class GCodeStreamer(Node):
                     return False, "canceled", 0
                 _wait(res_future, 0.05)
             res = res_future.result().result
+            self._last_xy = (res.x_mm, res.y_mm)
             idx = min(res.executed, len(commands))
             lines_done = commands[idx - 1].line if idx else 0
             if res.success:

@@ -173,6 +173,12 @@ class BoardLink:
             self._send_pos = 0                 # send the whole window again
             self.request_status()
 
+    def _was_sent(self, seq: int) -> bool:
+        """Host seq at or below the last line put on the wire."""
+        if self._send_pos == 0:
+            return seq <= self.acked
+        return seq <= self._window[self._send_pos - 1].seq
+
     def _acknowledge_through(self, seq: int) -> None:
         while self._window and self._window[0].seq <= seq:
             cmd = self._window.popleft()
@@ -191,6 +197,9 @@ class BoardLink:
             if reply.seq is None:
                 return
             seq = self._host_seq(reply.seq)
+            if not self._was_sent(seq):
+                self.stats.garbled_replies += 1     # acknowledges what was never sent
+                return
             self._acknowledge_through(seq)
             if seq + 1 >= self._credit_from:
                 self._credit_q, self._credit_from = reply.queue_free, seq + 1

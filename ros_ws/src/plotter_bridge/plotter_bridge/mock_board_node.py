@@ -21,8 +21,8 @@ DEFAULT_NAMESPACE = "/plotter"
 
 
 class MockBoardNode(Node):
-    def __init__(self) -> None:
-        super().__init__("mock_board", namespace=DEFAULT_NAMESPACE)
+    def __init__(self, *, namespace: str = DEFAULT_NAMESPACE, **kwargs) -> None:
+        super().__init__("mock_board", namespace=namespace, **kwargs)
         d = ParameterDescriptor
         self.declare_parameter("link", "", d(description="path of a symlink to the pty ('' = none)"))
         self.declare_parameter("trace", "", d(description="CSV file of every step: t_s,x_steps,y_steps ('' = none)"))

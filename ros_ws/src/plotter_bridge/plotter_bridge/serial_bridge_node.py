@@ -63,8 +63,8 @@ class Job:
 
 
 class SerialBridge(Node):
-    def __init__(self) -> None:
-        super().__init__("serial_bridge", namespace=DEFAULT_NAMESPACE)
+    def __init__(self, *, namespace: str = DEFAULT_NAMESPACE, **kwargs) -> None:
+        super().__init__("serial_bridge", namespace=namespace, **kwargs)
         d = ParameterDescriptor
         self.declare_parameter("port", "/dev/ttyUSB0", d(description="serial port or any pyserial URL (socket://host:port, a pty path)"))
         self.declare_parameter("baud", 115200, d(description="baud rate"))
@@ -292,6 +292,8 @@ class SerialBridge(Node):
                         if st is not None:
                             fb.x_mm, fb.y_mm = st.x / self.steps_per_mm, st.y / self.steps_per_mm
                         goal_handle.publish_feedback(fb)
+                    if st is not None:
+                        result.x_mm, result.y_mm = st.x / self.steps_per_mm, st.y / self.steps_per_mm
                     if done:
                         result.success = True
                         result.message = "done"

@@ -32,9 +32,9 @@ keypad, and its figure keys draw a preset figure when nothing is entered.
 Here ``size == 0`` means "not given" and becomes DEFAULT_SIZE_MM (40 mm);
 ``x``/``y`` of ``None`` become the centre of the 200 x 200 mm work area,
 (100, 100). ``resolve_placement`` implements the rule the ROS node uses for
-messages, where 0 cannot be told from "not given": when size == 0 *and*
-x == y == 0 the figure goes to the work-area centre (x = y = 0 with a real
-size stays at the origin, which is a valid position).
+messages, where 0 cannot be told from "not given": x == y == 0 puts the
+figure at the work-area centre (a figure centred on the work area's corner
+could never be drawn).
 
 Figures
 =======
@@ -697,14 +697,16 @@ def resolve_placement(
     default_centre: tuple[float, float] = DEFAULT_CENTRE_MM,
 ) -> tuple[float, float, float]:
     """Apply the defaults for a request whose numbers cannot be "not given"
-    (a ROS message): size == 0 becomes ``default_size``, and when also
-    x == y == 0 the anchor becomes ``default_centre``. A ``line`` ignores size
-    and keeps its start point. Other values (including NaN) pass through for
-    ``build_shape`` to judge."""
+    (a ROS message): size == 0 becomes ``default_size``, and x == y == 0
+    becomes ``default_centre``: a figure centred on the work area's corner
+    would never fit the work area, so (0, 0) can only mean "not given"
+    (``{shape: star, size: 40.0}`` draws a 40 mm star in the middle). A
+    ``line`` keeps its start point. Other values (including NaN) pass
+    through for ``build_shape`` to judge."""
     if size == 0.0:
         size = default_size
-        if x == 0.0 and y == 0.0 and _normalise_name(name) != "line":
-            x, y = default_centre
+    if x == 0.0 and y == 0.0 and _normalise_name(name) != "line":
+        x, y = default_centre
     return x, y, size
 
 

@@ -34,11 +34,11 @@ goal with the reason in ``message`` (and on ``shape_error``); so does a missing
 streamer (no ``run_program`` server within ``server_timeout`` seconds).
 
 Defaults rule: message fields cannot be "not given", so a goal with
-``size == 0`` gets ``default_size``, and when also ``x == 0`` and ``y == 0``
-it is placed at (``work_x``, ``work_y``), the work-area centre. A goal with a
-real size at x = y = 0 stays at the origin (a valid position), and a
-``line`` (which has no size) always starts at its (x, y). ``feed == 0`` means
-``default_feed``.
+``size == 0`` gets ``default_size``, and a goal at ``x == 0`` and ``y == 0``
+is placed at (``work_x``, ``work_y``), the work-area centre: a figure centred
+on the work area's corner could never be drawn, so ``{shape: star, size:
+40.0}`` draws a 40 mm star in the middle. A ``line`` always starts at its
+(x, y). ``feed == 0`` means ``default_feed``.
 
 Parameters: ``default_feed`` (mm/min, 1500), ``default_size`` (mm, 40),
 ``work_x`` / ``work_y`` (mm, 100 / 100), ``server_timeout`` (s, 2.0).

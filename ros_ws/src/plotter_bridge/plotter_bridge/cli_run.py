@@ -1,0 +1,187 @@
+"""`plotter stream`, `plotter draw` and `plotter watch`: the node graph from the command line.
+
+ROS is imported only when one of these runs, so `plotter check` stays quick.
+A program is parsed before any node starts, and checked against the work
+area from the pen's actual position before anything moves.
+"""
+from __future__ import annotations
+
+import argparse
+import sys
+import time
+from typing import List, TextIO
+
+from .cli import EXIT_BAD_PROGRAM, EXIT_OK, Command, register
+from .gcode_types import GCodeError
+
+EXIT_FAILED = 1
+DEFAULT_FEED = 1500.0      # mm/min for shapes drawn without --feed
+
+
+def _connection_args(p: argparse.ArgumentParser) -> None:
+    where = p.add_mutually_exclusive_group(required=True)
+    where.add_argument("--port", metavar="PORT", help="serial port or pyserial URL of the board")
+    where.add_argument("--mock", action="store_true", help="run on a simulated board (the firmware core)")
+    p.add_argument("--baud", type=int, default=115200, help="baud rate (default 115200)")
+    p.add_argument("--steps-per-mm", type=float, default=80.0, metavar="N",
+                   help="motor steps per mm (default 80)")
+    p.add_argument("--trace", metavar="OUT.csv", default="",
+                   help="with --mock: write every step (t_s,x_steps,y_steps)")
+    p.add_argument("--namespace", default="/plotter", help="ROS namespace of the nodes (default /plotter)")
+    p.add_argument("--quiet", action="store_true", help="no progress bar")
+
+
+class ProgressBar:
+    def __init__(self, total_lines: int, out: TextIO) -> None:
+        self.total = max(1, total_lines)
+        self.out = out
+        self._last = 0.0
+
+    def __call__(self, fb) -> None:
+        now = time.monotonic()
+        if now - self._last < 0.1 and fb.progress < 1.0:
+            return
+        self._last = now
+        width = 30
+        done = int(width * min(1.0, fb.progress))
+        self.out.write(f"\r[{'#' * done}{'.' * (width - done)}] {fb.progress * 100:5.1f}%  "
+                       f"line {fb.current_line}/{fb.total_lines}  X{fb.x_mm:8.3f} Y{fb.y_mm:8.3f}")
+        self.out.flush()
+
+    def close(self, success: bool) -> None:
+        if success:
+            self.out.write(f"\r[{'#' * 30}] 100.0%{' ' * 40}")
+        self.out.write("\n")
+
+
+def run_program_text(text: str, name: str, args: argparse.Namespace,
+                     out: TextIO = sys.stdout, err: TextIO = sys.stderr) -> int:
+    from .gcode import parse
+    try:
+        parse(text)           # syntax first; the work area is checked from the pen's real position
+    except GCodeError as exc:
+        err.write(f"{name}:{exc}\n")
+        return EXIT_BAD_PROGRAM
+    from .local_graph import GraphOptions, LocalGraph
+    options = GraphOptions(port=args.port or "", mock=args.mock, baud=args.baud,
+                           steps_per_mm=args.steps_per_mm, trace=args.trace,
+                           namespace=args.namespace)
+    bar = None if args.quiet else ProgressBar(text.count("\n") + 1, err)
+    with LocalGraph(options) as graph:
+        result = graph.run_program(text, name, progress=bar)
+    if bar:
+        bar.close(result.success)
+    if result.success:
+        out.write(f"{name}: done, pen at X{result.x_mm:.3f} Y{result.y_mm:.3f} mm\n")
+        return EXIT_OK
+    err.write(f"{name}: {result.message}\n")
+    return EXIT_FAILED
+
+
+# ---------------------------------------------------------------- stream
+
+def _configure_stream(p: argparse.ArgumentParser) -> None:
+    p.add_argument("file", metavar="FILE.gcode", help="G-code program to draw")
+    _connection_args(p)
+
+
+def run_stream(args: argparse.Namespace) -> int:
+    try:
+        with open(args.file, "rb") as f:
+            data = f.read()
+    except OSError as exc:
+        sys.stderr.write(f"{args.file}: {exc.strerror}\n")
+        return EXIT_BAD_PROGRAM
+    from .gcode import decode_program
+    try:
+        text = decode_program(data)
+    except GCodeError as exc:
+        sys.stderr.write(f"{args.file}:{exc}\n")
+        return EXIT_BAD_PROGRAM
+    return run_program_text(text, args.file, args)
+
+
+register(Command("stream", "stream a G-code program to the board (or a mock board) and wait for it",
+                 _configure_stream, run_stream))
+
+
+# ---------------------------------------------------------------- draw
+
+def _configure_draw(p: argparse.ArgumentParser) -> None:
+    p.add_argument("shape", help="diamond, star, circle, cone, car, line or arc")
+    p.add_argument("--size", type=float, default=0.0, metavar="MM",
+                   help="radius of a circle/arc, overall size of the others (default 40)")
+    p.add_argument("--x", type=float, default=None, metavar="MM", help="anchor or centre X (default 100)")
+    p.add_argument("--y", type=float, default=None, metavar="MM", help="anchor or centre Y (default 100)")
+    p.add_argument("--x2", type=float, default=0.0, metavar="MM", help="line: end X")
+    p.add_argument("--y2", type=float, default=0.0, metavar="MM", help="line: end Y")
+    p.add_argument("--start-angle", type=float, default=0.0, metavar="DEG", help="arc: start angle")
+    p.add_argument("--end-angle", type=float, default=0.0, metavar="DEG", help="arc: end angle")
+    p.add_argument("--ccw", action="store_true", help="circles and arcs counter-clockwise (default clockwise)")
+    p.add_argument("--reverse", action="store_true", help="draw the figure backwards")
+    p.add_argument("--feed", type=float, default=DEFAULT_FEED, metavar="MM_PER_MIN",
+                   help=f"drawing feed (default {DEFAULT_FEED:g})")
+    _connection_args(p)
+
+
+def shape_program(args: argparse.Namespace) -> List[str]:
+    from plotter_shapes.geometry import build_shape, figure_to_gcode
+    figure = build_shape(args.shape, args.x, args.y, args.size, not args.ccw, args.reverse,
+                         args.feed, args.x2, args.y2, args.start_angle, args.end_angle)
+    return figure_to_gcode(figure, args.feed, args.shape)
+
+
+def run_draw(args: argparse.Namespace) -> int:
+    from plotter_shapes.geometry import ShapeError
+    try:
+        lines = shape_program(args)
+    except ShapeError as exc:
+        sys.stderr.write(f"draw: {exc}\n")
+        return EXIT_BAD_PROGRAM
+    return run_program_text("\n".join(lines) + "\n", args.shape, args)
+
+
+register(Command("draw", "draw one of the built-in shapes", _configure_draw, run_draw))
+
+
+# ---------------------------------------------------------------- watch
+
+def _configure_watch(p: argparse.ArgumentParser) -> None:
+    p.add_argument("--namespace", default="/plotter", help="namespace of the plotter (default /plotter)")
+    p.add_argument("--count", type=int, default=0, help="stop after this many messages (0: never)")
+    p.add_argument("--timeout", type=float, default=0.0, help="stop after this many seconds (0: never)")
+
+
+def run_watch(args: argparse.Namespace, out: TextIO = sys.stdout) -> int:
+    import rclpy
+    from geometry_msgs.msg import PointStamped
+    rclpy.init(args=[])
+    node = rclpy.create_node("plotter_watch")
+    seen = [0]
+    topic = args.namespace.rstrip("/") + "/position"
+
+    def show(msg: PointStamped) -> None:
+        seen[0] += 1
+        s = msg.header.stamp
+        out.write(f"{s.sec}.{s.nanosec:09d}  X {msg.point.x:9.3f}  Y {msg.point.y:9.3f} mm\n")
+        out.flush()
+
+    node.create_subscription(PointStamped, topic, show, 10)
+    start = time.monotonic()
+    try:
+        while rclpy.ok():
+            rclpy.spin_once(node, timeout_sec=0.1)
+            if args.count and seen[0] >= args.count:
+                break
+            if args.timeout and time.monotonic() - start > args.timeout:
+                break
+    except KeyboardInterrupt:
+        pass
+    finally:
+        node.destroy_node()
+        rclpy.try_shutdown()
+    return EXIT_OK if (seen[0] or not args.count) else EXIT_FAILED
+
+
+register(Command("watch", "print live positions (like ros2 topic echo /plotter/position)",
+                 _configure_watch, run_watch))

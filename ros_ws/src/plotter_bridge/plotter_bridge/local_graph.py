@@ -1,0 +1,117 @@
+"""The plotter's node graph in one process, for the `plotter` command.
+
+Starts the serial bridge and the G-code streamer (and, with a mock board,
+the simulated board in a thread) on one executor, and runs programs through
+the streamer's `run_program` action exactly as a separate client would.
+"""
+from __future__ import annotations
+
+import threading
+from dataclasses import dataclass
+from typing import Callable, Optional
+
+import rclpy
+from rclpy.action import ActionClient
+from rclpy.context import Context
+from rclpy.executors import MultiThreadedExecutor
+from rclpy.parameter import Parameter
+
+from plotter_interfaces.action import RunProgram
+
+from .gcode_streamer_node import GCodeStreamer
+from .mock_board import MockBoard, MockBoardConfig
+from .serial_bridge_node import SerialBridge
+
+ProgressCallback = Callable[[RunProgram.Feedback], None]
+
+
+@dataclass
+class GraphOptions:
+    port: str = ""                 # serial port or pyserial URL; "" with mock=True
+    mock: bool = False
+    baud: int = 115200
+    steps_per_mm: float = 80.0
+    trace: str = ""                # mock board step trace (CSV)
+    namespace: str = "/plotter"
+
+
+@dataclass
+class ProgramResult:
+    success: bool
+    message: str
+    x_mm: float
+    y_mm: float
+
+
+class LocalGraph:
+    def __init__(self, options: GraphOptions) -> None:
+        self.options = options
+        self.board: Optional[MockBoard] = None
+        self._context = Context()
+        rclpy.init(context=self._context, args=[])
+        port = options.port
+        if options.mock:
+            self.board = MockBoard(MockBoardConfig(baud=options.baud, trace=options.trace))
+            self.board.start()
+            port = self.board.port_path
+        if not port:
+            raise ValueError("no port given (use --port PORT or --mock)")
+        spm = Parameter("steps_per_mm", value=float(options.steps_per_mm))
+        self.bridge = SerialBridge(namespace=options.namespace, context=self._context,
+                                   parameter_overrides=[Parameter("port", value=port),
+                                                        Parameter("baud", value=int(options.baud)), spm])
+        self.streamer = GCodeStreamer(namespace=options.namespace, context=self._context,
+                                      parameter_overrides=[spm])
+        self.client_node = rclpy.create_node("plotter_cli", namespace=options.namespace,
+                                             context=self._context)
+        self._client = ActionClient(self.client_node, RunProgram, "run_program")
+        self._executor = MultiThreadedExecutor(context=self._context)
+        for node in (self.bridge, self.streamer, self.client_node):
+            self._executor.add_node(node)
+        self._spin = threading.Thread(target=self._executor.spin, daemon=True)
+        self._spin.start()
+
+    def run_program(self, text: str, name: str = "program",
+                    progress: Optional[ProgressCallback] = None,
+                    timeout: float = 24 * 3600.0) -> ProgramResult:
+        if not self._client.wait_for_server(timeout_sec=10.0):
+            return ProgramResult(False, "gcode streamer not available", 0.0, 0.0)
+        goal = RunProgram.Goal()
+        goal.program, goal.name = text, name
+        done = threading.Event()
+        send = self._client.send_goal_async(
+            goal, feedback_callback=(lambda fb: progress(fb.feedback)) if progress else None)
+        send.add_done_callback(lambda _: done.set())
+        if not done.wait(10.0):
+            return ProgramResult(False, "no answer from the streamer", 0.0, 0.0)
+        handle = send.result()
+        if not handle.accepted:
+            return ProgramResult(False, "program refused", 0.0, 0.0)
+        finished = threading.Event()
+        res = handle.get_result_async()
+        res.add_done_callback(lambda _: finished.set())
+        try:
+            if not finished.wait(timeout):
+                handle.cancel_goal_async()
+                return ProgramResult(False, "timed out", 0.0, 0.0)
+        except KeyboardInterrupt:
+            handle.cancel_goal_async()
+            finished.wait(10.0)
+            raise
+        r = res.result().result
+        return ProgramResult(r.success, r.message, r.x_mm, r.y_mm)
+
+    def close(self) -> None:
+        self._client.destroy()
+        self._executor.shutdown(timeout_sec=2.0)
+        for node in (self.client_node, self.streamer, self.bridge):
+            node.destroy_node()
+        if self.board is not None:
+            self.board.stop()
+        rclpy.try_shutdown(context=self._context)
+
+    def __enter__(self) -> "LocalGraph":
+        return self
+
+    def __exit__(self, *exc) -> None:
+        self.close()

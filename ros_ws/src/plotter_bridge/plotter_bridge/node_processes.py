@@ -1,0 +1,102 @@
+"""The plotter's nodes as separate processes, without a launch system.
+
+Each node runs as `python -m <module> --ros-args ...`, exactly as `ros2 run`
+starts it; used by the demo (scripts/demo.py) and the end-to-end tests.
+"""
+from __future__ import annotations
+
+import csv
+import os
+import signal
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+from typing import Callable, List
+
+
+def wait_until(predicate: Callable[[], bool], timeout: float = 30.0, what: str = "condition") -> None:
+    end = time.monotonic() + timeout
+    while time.monotonic() < end:
+        if predicate():
+            return
+        time.sleep(0.02)
+    raise TimeoutError(f"timed out waiting for {what}")
+
+
+class NodeProcess:
+    def __init__(self, module: str, domain: int, ros_args=()) -> None:
+        env = dict(os.environ)
+        env["ROS_DOMAIN_ID"] = str(domain)
+        env["ROS_AUTOMATIC_DISCOVERY_RANGE"] = "LOCALHOST"
+        env["PYTHONUNBUFFERED"] = "1"
+        self.module = module
+        self.log = tempfile.TemporaryFile(mode="w+")
+        args = [sys.executable, "-m", module]
+        if ros_args:
+            args += ["--ros-args", *ros_args]
+        self.proc = subprocess.Popen(args, env=env, stdout=self.log, stderr=subprocess.STDOUT)
+
+    def output(self) -> str:
+        self.log.seek(0)
+        return self.log.read()
+
+    def alive(self) -> bool:
+        return self.proc.poll() is None
+
+    def interrupt(self, timeout: float = 15.0) -> int:
+        """Ctrl-C, as in a terminal."""
+        if self.alive():
+            self.proc.send_signal(signal.SIGINT)
+            try:
+                self.proc.wait(timeout)
+            except subprocess.TimeoutExpired:
+                self.proc.kill()
+                self.proc.wait()
+                raise RuntimeError(f"{self.module} did not stop on Ctrl-C:\n{self.output()}")
+        return self.proc.returncode
+
+    def close(self) -> None:
+        if self.alive():
+            self.proc.kill()
+            self.proc.wait()
+        self.log.close()
+
+
+class PlotterGraph:
+    """mock_board + serial_bridge + gcode_streamer + shape_server, each a process."""
+
+    def __init__(self, domain: int, workdir: Path, namespace: str = "/plotter",
+                 bridge_args=(), board_args=()) -> None:
+        self.domain = domain
+        self.link = workdir / "board.pty"
+        self.trace = workdir / "trace.csv"
+        ns = ("-r", f"__ns:={namespace}")
+        self.board = NodeProcess("plotter_bridge.mock_board_node", domain,
+                                 ns + ("-p", f"link:={self.link}", "-p", f"trace:={self.trace}") + tuple(board_args))
+        wait_until(self.link.exists, 20, "the mock board's pty link")
+        self.bridge = NodeProcess("plotter_bridge.serial_bridge_node", domain,
+                                  ns + ("-p", f"port:={self.link}") + tuple(bridge_args))
+        self.streamer = NodeProcess("plotter_bridge.gcode_streamer_node", domain, ns)
+        self.shapes = NodeProcess("plotter_shapes.shape_server_node", domain, ns)
+        self.processes = [self.shapes, self.streamer, self.bridge, self.board]
+
+    def outputs(self) -> str:
+        return "\n".join(f"--- {p.module}\n{p.output()}" for p in self.processes if not p.log.closed)
+
+    def close(self) -> List[int]:
+        codes = []
+        for p in self.processes:
+            try:
+                codes.append(p.interrupt())
+            finally:
+                p.close()
+        return codes
+
+
+def read_trace(path: Path) -> List[tuple]:
+    with open(path) as f:
+        rows = list(csv.reader(f))
+    assert rows[0] == ["t_s", "x_steps", "y_steps"]
+    return [(float(t), int(x), int(y)) for t, x, y in rows[1:]]

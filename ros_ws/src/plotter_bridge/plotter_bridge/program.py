@@ -1,0 +1,37 @@
+"""A G-code program compiled to board commands, before anything moves.
+
+Parsing, the work-area check and the conversion to steps and board commands
+all happen here, completely, so that a bad program is refused whole.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import List, Tuple
+
+from .commands import BoardCommand, to_commands
+from .gcode import load_program
+from .gcode_limits import WorkArea, check_limits
+from .gcode_steps import to_steps
+from .gcode_types import GCodeError
+
+MAX_PROGRAM_BYTES = 4 * 1024 * 1024
+
+
+@dataclass(frozen=True)
+class StreamerConfig:
+    steps_per_mm: float = 80.0
+    rapid_feed: float = 6000.0
+    area: WorkArea = WorkArea()
+
+
+def compile_program(text: str, config: StreamerConfig,
+                    start_steps: Tuple[int, int] = (0, 0)) -> List[BoardCommand]:
+    """G-code text to board commands for a pen now at start_steps; raises
+    GCodeError naming the line."""
+    data = text.encode("utf-8", "surrogateescape") if isinstance(text, str) else text
+    if len(data) > MAX_PROGRAM_BYTES:
+        raise GCodeError(0, f"program too large: {len(data)} bytes (limit {MAX_PROGRAM_BYTES})")
+    start = (start_steps[0] / config.steps_per_mm, start_steps[1] / config.steps_per_mm)
+    items = load_program(data, rapid_rate=config.rapid_feed, start=start)
+    check_limits(items, config.area)
+    return to_commands(to_steps(items, config.steps_per_mm), config.steps_per_mm, config.rapid_feed)

@@ -1,0 +1,124 @@
+#!/usr/bin/env python3
+"""The main job on the mock board: the reference board's figures through the whole node graph.
+
+Starts mock_board, serial_bridge, gcode_streamer and shape_server as separate
+processes (as `ros2 run` would), publishes one ShapeGoal per figure on
+/plotter/shape (as `ros2 topic pub --once` would), waits for the board to
+finish each, prints live positions from /plotter/position, and writes a
+picture of what the board drew (docs/demo.svg by default).
+"""
+from __future__ import annotations
+
+import argparse
+import os
+import random
+import sys
+import tempfile
+import threading
+import time
+from pathlib import Path
+
+import rclpy
+from geometry_msgs.msg import PointStamped
+from rclpy.context import Context
+from rclpy.executors import SingleThreadedExecutor
+from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
+
+from plotter_bridge.node_processes import PlotterGraph, read_trace, wait_until
+from plotter_bridge.picture import segment_points, svg
+from plotter_interfaces.msg import BoardState, ShapeGoal
+from plotter_shapes.geometry import build_shape
+
+STEPS_PER_MM = 80.0
+# The seed board's figures (seed 000, chapter 4), laid out on the 200 x 200 mm area.
+FIGURES = [
+    dict(shape="diamond", x=40.0, y=160.0, size=50.0),
+    dict(shape="star", x=100.0, y=160.0, size=50.0),
+    dict(shape="circle", x=160.0, y=160.0, size=25.0, clockwise=True),
+    dict(shape="cone", x=40.0, y=70.0, size=50.0),
+    dict(shape="car", x=100.0, y=70.0, size=50.0),
+    dict(shape="car", x=160.0, y=70.0, size=50.0, reverse=True),
+]
+
+
+def main() -> int:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--svg", default="docs/demo.svg", help="picture to write (default docs/demo.svg)")
+    ap.add_argument("--trace", default="", help="keep the step trace here (CSV)")
+    args = ap.parse_args()
+
+    work = Path(tempfile.mkdtemp(prefix="plotter-demo-"))
+    domain = int(os.environ.get("ROS_DOMAIN_ID", random.randint(1, 100)))
+    print(f"starting mock_board, serial_bridge, gcode_streamer, shape_server (ROS domain {domain})", flush=True)
+    graph = PlotterGraph(domain, work)
+    context = Context()
+    rclpy.init(context=context, domain_id=domain)
+    node = rclpy.create_node("demo", namespace="/plotter", context=context)
+    executor = SingleThreadedExecutor(context=context)
+    executor.add_node(node)
+    states = []
+    last_print = [0.0]
+
+    def on_position(msg: PointStamped) -> None:
+        now = time.monotonic()
+        if now - last_print[0] >= 0.25:
+            last_print[0] = now
+            print(f"  /plotter/position  X {msg.point.x:8.3f}  Y {msg.point.y:8.3f} mm", flush=True)
+
+    latched = QoSProfile(depth=1, reliability=ReliabilityPolicy.RELIABLE,
+                         durability=DurabilityPolicy.TRANSIENT_LOCAL)
+    node.create_subscription(PointStamped, "position", on_position, 10)
+    node.create_subscription(BoardState, "state", lambda m: states.append((time.monotonic(), m)), latched)
+    pub = node.create_publisher(ShapeGoal, "shape", 10)
+    spin = threading.Thread(target=executor.spin, daemon=True)
+    spin.start()
+    failed = False
+    try:
+        wait_until(lambda: any(m.state == BoardState.IDLE for _, m in states), 60, "the board")
+        wait_until(lambda: pub.get_subscription_count() > 0, 30, "shape_server")
+        for fig in FIGURES:
+            label = fig["shape"] + (" reversed" if fig.get("reverse") else "")
+            print(f"drawing {label} at ({fig['x']:g}, {fig['y']:g}) mm", flush=True)
+            t0 = time.monotonic()
+            pub.publish(ShapeGoal(**fig))
+
+            def finished() -> bool:
+                after = [m for t, m in states if t >= t0]
+                run = [k for k, m in enumerate(after) if m.state == BoardState.RUNNING]
+                return bool(run) and any(m.state == BoardState.IDLE and m.queue_free == m.queue_size
+                                         for m in after[run[0]:])
+            wait_until(finished, 300, f"the {label}")
+            if states[-1][1].last_error:
+                print(f"  board reports: {states[-1][1].last_error}", flush=True)
+                failed = True
+    finally:
+        executor.shutdown(timeout_sec=2.0)
+        node.destroy_node()
+        rclpy.try_shutdown(context=context)
+        codes = graph.close()
+
+    trace = read_trace(graph.trace)
+    drawn = [(x / STEPS_PER_MM, y / STEPS_PER_MM) for _, x, y in trace]
+    programmed = []
+    for fig in FIGURES:
+        figure = build_shape(fig["shape"], fig["x"], fig["y"], fig["size"],
+                             fig.get("clockwise", False), fig.get("reverse", False))
+        for stroke in figure.strokes:
+            pts = []
+            for seg in stroke.segments:
+                pts.extend(segment_points(seg))
+            programmed.append(pts)
+    out = Path(args.svg)
+    out.parent.mkdir(parents=True, exist_ok=True)
+    out.write_text(svg(drawn, programmed, title="seed figures on the mock board"))
+    if args.trace:
+        Path(args.trace).write_bytes(graph.trace.read_bytes())
+    print(f"{len(trace)} steps in {trace[-1][0]:.1f} s of board time; picture: {out}")
+    if failed or any(codes):
+        print(f"problems: node exit codes {codes}", file=sys.stderr)
+        return 1
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

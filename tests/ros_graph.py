@@ -1,0 +1,53 @@
+"""Test helpers: the node graph as processes (plotter_bridge.node_processes),
+a probe node in the test process, and geometry for comparing traces."""
+from __future__ import annotations
+
+import math
+import os
+import threading
+
+from plotter_bridge.node_processes import NodeProcess, PlotterGraph, read_trace, wait_until  # noqa: F401
+
+
+def distance_to_segment(p, seg) -> float:
+    """Distance from point p to a plotter_shapes Line or Arc (same units)."""
+    px, py = p
+    if hasattr(seg, "cx"):
+        cx, cy = seg.cx, seg.cy
+        r = math.hypot(seg.x0 - cx, seg.y0 - cy)
+        a0 = math.atan2(seg.y0 - cy, seg.x0 - cx)
+        a1 = math.atan2(seg.y1 - cy, seg.x1 - cx)
+        a = math.atan2(py - cy, px - cx)
+        span = ((a0 - a1) if seg.cw else (a1 - a0)) % (2 * math.pi) or 2 * math.pi
+        off = ((a0 - a) if seg.cw else (a - a0)) % (2 * math.pi)
+        if off <= span:
+            return abs(math.hypot(px - cx, py - cy) - r)
+        return min(math.hypot(px - seg.x0, py - seg.y0), math.hypot(px - seg.x1, py - seg.y1))
+    x0, y0, x1, y1 = seg.x0, seg.y0, seg.x1, seg.y1
+    dx, dy = x1 - x0, y1 - y0
+    L2 = dx * dx + dy * dy
+    t = 0.0 if L2 == 0 else max(0.0, min(1.0, ((px - x0) * dx + (py - y0) * dy) / L2))
+    return math.hypot(px - (x0 + t * dx), py - (y0 + t * dy))
+
+
+class Probe:
+    """A node in the test process spinning in a thread."""
+
+    def __init__(self, domain: int, namespace: str = "/plotter") -> None:
+        import rclpy
+        from rclpy.context import Context
+        from rclpy.executors import MultiThreadedExecutor
+        os.environ["ROS_DOMAIN_ID"] = str(domain)
+        self.context = Context()
+        rclpy.init(context=self.context, domain_id=domain)
+        self.node = rclpy.create_node("test_probe", namespace=namespace, context=self.context)
+        self.executor = MultiThreadedExecutor(context=self.context)
+        self.executor.add_node(self.node)
+        self._thread = threading.Thread(target=self.executor.spin, daemon=True)
+        self._thread.start()
+
+    def close(self) -> None:
+        import rclpy
+        self.executor.shutdown(timeout_sec=2.0)
+        self.node.destroy_node()
+        rclpy.try_shutdown(context=self.context)

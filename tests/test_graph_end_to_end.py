@@ -1,0 +1,175 @@
+"""The whole node graph, launch-less, each node its own process, on the mock board.
+
+A shape goal is published exactly as `ros2 topic pub --once /plotter/shape
+plotter_interfaces/msg/ShapeGoal "{shape: star, size: 40.0}"` would; the
+mock board's step trace and /plotter/position show what was drawn.
+"""
+import math
+import random
+import threading
+import time
+
+import pytest
+
+from ros_graph import PlotterGraph, Probe, distance_to_segment, read_trace, wait_until
+
+pytestmark = pytest.mark.ros
+
+STEPS_PER_MM = 80.0
+
+
+@pytest.fixture(scope="module")
+def graph(tmp_path_factory):
+    from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
+    from geometry_msgs.msg import PointStamped
+    from plotter_interfaces.msg import BoardState, ShapeGoal
+
+    domain = random.SystemRandom().randint(110, 200)
+    g = PlotterGraph(domain, tmp_path_factory.mktemp("graph"))
+    probe = Probe(domain)
+    g.probe = probe
+    g.positions, g.states = [], []
+    lock = threading.Lock()
+    g.lock = lock
+
+    def on_pos(m):
+        with lock:
+            g.positions.append((time.monotonic(), m.point.x, m.point.y))
+
+    def on_state(m):
+        with lock:
+            g.states.append((time.monotonic(), m.state, m.queue_free, m.x_steps, m.y_steps))
+
+    latched = QoSProfile(depth=1, reliability=ReliabilityPolicy.RELIABLE,
+                         durability=DurabilityPolicy.TRANSIENT_LOCAL)
+    probe.node.create_subscription(PointStamped, "position", on_pos, 50)
+    probe.node.create_subscription(BoardState, "state", on_state, latched)
+    g.shape_pub = probe.node.create_publisher(ShapeGoal, "shape", 10)
+    try:
+        wait_until(lambda: any(s[1] == BoardState.IDLE for s in g.states), 60, "the bridge's first IDLE state")
+        yield g
+    except BaseException:
+        print(g.outputs())
+        raise
+    finally:
+        probe.close()
+        codes = g.close()
+    assert all(c == 0 for c in codes), f"nodes did not exit cleanly on Ctrl-C: {codes}\n"
+
+
+def wait_idle_after(g, t0, timeout=120):
+    """Wait for RUNNING after t0, then IDLE with an empty queue."""
+    from plotter_interfaces.msg import BoardState
+
+    def ran_and_stopped():
+        with g.lock:
+            after = [s for s in g.states if s[0] >= t0]
+        seen_run = [k for k, s in enumerate(after) if s[1] == BoardState.RUNNING]
+        return bool(seen_run) and any(s[1] == BoardState.IDLE and s[2] == 6 for s in after[seen_run[0]:])
+    wait_until(ran_and_stopped, timeout, "the board to run and come to rest")
+
+
+def reference_path(figure, start):
+    """The figure's segments plus the straight pen-up travel to and between strokes."""
+    from plotter_shapes.geometry import Line
+    segs, here = [], start
+    for stroke in figure.strokes:
+        if stroke.start != here:
+            segs.append(Line(here[0], here[1], *stroke.start))
+        segs.extend(stroke.segments)
+        here = stroke.end
+    return segs
+
+
+def scaled(seg):
+    """A geometry segment in steps."""
+    from dataclasses import replace
+    fields = {k: getattr(seg, k) * STEPS_PER_MM for k in ("x0", "y0", "x1", "y1", "cx", "cy") if hasattr(seg, k)}
+    return replace(seg, **fields)
+
+
+def check_trace_follows(trace, segments, tolerance_steps=1.5):
+    segs = [scaled(s) for s in segments]
+    worst = 0.0
+    for _, x, y in trace:
+        d = min(distance_to_segment((x, y), s) for s in segs)
+        worst = max(worst, d)
+    assert worst <= tolerance_steps, f"trace strays {worst:.2f} steps from the figure"
+
+
+def test_star_from_a_topic_message_is_drawn(graph):
+    from plotter_interfaces.msg import ShapeGoal
+    from plotter_shapes.geometry import build_shape
+
+    wait_until(lambda: graph.shape_pub.get_subscription_count() > 0, 30, "shape_server subscription")
+    t0 = time.monotonic()
+    graph.shape_pub.publish(ShapeGoal(shape="star", size=40.0))
+    wait_idle_after(graph, t0)
+    figure = build_shape("star", None, None, 40.0)
+    trace = read_trace(graph.trace)
+    assert trace, "the board took no steps"
+    check_trace_follows(trace, reference_path(figure, (0.0, 0.0)))
+    end = tuple(round(v * STEPS_PER_MM) for v in figure.end)
+    assert trace[-1][1:] == end
+    wait_until(lambda: graph.positions and abs(graph.positions[-1][1] * STEPS_PER_MM - end[0]) < 1e-6
+               and abs(graph.positions[-1][2] * STEPS_PER_MM - end[1]) < 1e-6, 5, "final /plotter/position")
+    # /plotter/position while moving: at least 20 messages a second (median gap).
+    with graph.lock:
+        moving = [p[0] for p in graph.positions if p[0] >= t0]
+    gaps = sorted(b - a for a, b in zip(moving, moving[1:]))
+    assert gaps and gaps[len(gaps) // 2] <= 0.05
+
+
+def run_program(graph, text, cancel_after=None):
+    from rclpy.action import ActionClient
+    from plotter_interfaces.action import RunProgram
+
+    client = ActionClient(graph.probe.node, RunProgram, "run_program")
+    assert client.wait_for_server(timeout_sec=30)
+    feedback = []
+    goal = RunProgram.Goal(program=text, name="test")
+    send = client.send_goal_async(goal, feedback_callback=lambda fb: feedback.append(fb.feedback))
+    wait_until(send.done, 30, "goal acceptance")
+    handle = send.result()
+    assert handle.accepted
+    res = handle.get_result_async()
+    if cancel_after is not None:
+        wait_until(lambda: len(feedback) > 0, 30, "first feedback")
+        time.sleep(cancel_after)
+        handle.cancel_goal_async()
+    wait_until(res.done, 300, "the program's result")
+    client.destroy()
+    return res.result(), feedback
+
+
+def test_gcode_program_through_the_action(graph):
+    from action_msgs.msg import GoalStatus
+    square = "\n".join(["G21 G90", "G0 X20 Y20", "M3", "G1 X60 Y20 F3000", "G1 X60 Y60",
+                        "G2 X20 Y60 I-20 J0", "G1 X20 Y20", "M5", "G0 X30 Y30", "M2"])
+    result, feedback = run_program(graph, square)
+    assert result.status == GoalStatus.STATUS_SUCCEEDED, result.result.message
+    assert result.result.success
+    assert (result.result.x_mm, result.result.y_mm) == (30.0, 30.0)
+    assert feedback and feedback[-1].total_lines >= 9
+    assert read_trace(graph.trace)[-1][1:] == (2400, 2400)
+
+
+def test_bad_program_is_refused_before_anything_moves(graph):
+    from action_msgs.msg import GoalStatus
+    before = read_trace(graph.trace)
+    result, _ = run_program(graph, "G21 G90\nG1 X10 Y10 F1000\nG1 X10 Y900\nM2\n")
+    assert result.status == GoalStatus.STATUS_ABORTED
+    assert "line 3" in result.result.message and "work area" in result.result.message
+    time.sleep(0.3)
+    assert read_trace(graph.trace) == before
+
+
+def test_cancel_stops_the_board_and_nothing_moves_after(graph):
+    from action_msgs.msg import GoalStatus
+    slow = "G21 G90\nM3\n" + "".join(f"G1 X{150 if k % 2 == 0 else 40} Y{40 + k} F600\n" for k in range(40)) + "M2\n"
+    result, _ = run_program(graph, slow, cancel_after=1.0)
+    assert result.status == GoalStatus.STATUS_CANCELED
+    time.sleep(0.5)
+    n = len(read_trace(graph.trace))
+    time.sleep(1.0)
+    assert len(read_trace(graph.trace)) == n, "the board kept moving after the cancel"
