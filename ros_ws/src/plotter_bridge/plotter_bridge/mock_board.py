@@ -50,6 +50,7 @@ class MockBoard:
         if config.trace:
             self._trace = open(config.trace, "w", buffering=1 << 16)
             self._trace.write("t_s,x_steps,y_steps\n")
+        self._trace_dirty = False
         self._pending_rx = bytearray()
         self._stop = threading.Event()
         self._thread: Optional[threading.Thread] = None
@@ -111,6 +112,9 @@ class MockBoard:
         core = self.core
         if not core.timer_running():
             self.board_time = now
+            if self._trace_dirty:
+                self._trace.flush()       # readers see a finished move at once
+                self._trace_dirty = False
             return
         # Catch up with every step interrupt due by now, on the board's own clock.
         budget = 20000
@@ -125,6 +129,7 @@ class MockBoard:
                 if self._trace:
                     x, y = core.position
                     self._trace.write(f"{self.board_time:.6f},{x},{y}\n")
+                    self._trace_dirty = True
             if budget % 64 == 0:
                 core.poll()
 
