@@ -1,8 +1,12 @@
 /* hal.h - selects the hardware layer: the 8051 board under SDCC, the host
  * simulation under gcc.  The core only uses the macros listed here:
  *   FAST, IDATA, XDATA    storage classes (direct / indirect internal RAM, external RAM)
+ *   ROM                   storage class of constant tables and strings (program memory)
+ *   FLAG                  type of a one-bit flag (a bit variable on the 8051)
  *   STEPPER_ISR           definition line of the step timer interrupt
- *   HAL_TIMER_ADVANCE(p)  schedule the next step interrupt p machine cycles after this one
+ *   HAL_PERIOD(p)         a step period of p machine cycles in the timer's own form
+ *   HAL_TIMER_ADVANCE(r)  schedule the next step interrupt one period r = HAL_PERIOD(p)
+ *                         after the one being served
  *   HAL_TIMER_START(p)    start the step timer, first interrupt after p cycles
  *   HAL_TIMER_HALT()      stop the step timer at once and drop a pending tick
  *   HAL_PORT_OUT(v)       write the step/direction/pen port (a byte-wide write)

@@ -2,53 +2,43 @@
  * multiplication, division or square roots, done once per command outside
  * the step interrupt: absolute step counts and directions, arc quadrants and
  * axis crossings, ramp levels for the feed and exit speeds, the exact cruise
- * period, and the braking distance of the exit level. */
+ * period, and the braking distance of the exit level.
+ *
+ * A command is prepared in `plan` and copied into the queue only when it is
+ * complete: the step interrupt never sees a half-written slot.  Work values
+ * live in `plan` and a few globals, and the helpers are leaf functions:
+ * SDCC overlays the locals of functions that call no others, everything
+ * else would take fixed bytes of direct RAM. */
 #include "planner.h"
 #include "stepper.h"
 #include "ramp.h"
 
 XDATA segment_t queue[QUEUE_SLOTS];
 FAST volatile uint8_t q_head, q_tail;
+IDATA uint16_t plan_arg[6];
+IDATA uint16_t plan_seq;
 
-uint16_t default_feed = 2000;
-uint16_t pen_delay_ms = 150;
+IDATA uint16_t setting[SETTINGS] = {1, RAMP_TRAPEZOID, 2000, 150};
 
 #define FEED_MIN 15u    /* slower would overflow the 16-bit step period */
 
-static uint16_t last_feed;
-static uint16_t last_period;
+static IDATA segment_t plan;
+static uint32_t arc_t;          /* arc: R^2, then work values */
+static uint16_t arc_r;          /* arc: radius, rounded down */
+static FLAG arc_cw;             /* arc: clockwise */
 
-uint16_t isqrt32(uint32_t v)
+/* arc_r = the square root of arc_t, rounded down (arc_t < 2^31). */
+static void arc_sqrt(void)
 {
-    uint32_t root = 0;
-    uint32_t bit = 0x40000000UL;
-    while (bit > v) {
-        bit >>= 2;
-    }
-    while (bit) {
-        if (v >= root + bit) {
-            v -= root + bit;
-            root = (root >> 1) + bit;
-        } else {
-            root >>= 1;
+    uint16_t root = 0, bit = 0x8000;
+    do {
+        root |= bit;
+        if ((uint32_t)root * root > arc_t) {
+            root ^= bit;
         }
-        bit >>= 2;
-    }
-    return (uint16_t)root;
-}
-
-uint8_t planner_level_for_rate(uint16_t rate)
-{
-    RAMP_ROM uint16_t *rates = ramp_rate[st_shape];
-    uint8_t lo = 0, hi = RAMP_LEVELS - 1, mid;
-    if (rate <= rates[0]) {
-        return 0;
-    }
-    while (lo < hi) {               /* largest level whose rate does not exceed `rate` */
-        mid = (uint8_t)((lo + hi + 1) >> 1);
-        if (rates[mid] <= rate) lo = mid; else hi = mid - 1;
-    }
-    return lo;
+        bit >>= 1;
+    } while (bit);
+    arc_r = root;
 }
 
 uint8_t queue_used(void)
@@ -62,176 +52,215 @@ void planner_flush(void)
     q_tail = q_head;
 }
 
-static XDATA segment_t *next_slot(void)
+/* Append `plan` to the queue. */
+static uint8_t commit(void)
 {
-    return &queue[q_head];
-}
-
-/* Ramp fields shared by lines and arcs. */
-static void plan_speeds(XDATA segment_t *s, uint16_t feed, uint16_t exit_rate)
-{
-    uint16_t top = ramp_rate[st_shape][RAMP_LEVELS - 1];
-    if (feed == 0) feed = default_feed;
-    if (feed < FEED_MIN) feed = FEED_MIN;
-    if (feed > top) feed = top;
-    if (exit_rate > feed) exit_rate = feed;
-    if (feed != last_feed) {
-        last_feed = feed;
-        last_period = (uint16_t)(CYCLES_PER_S / feed);
-    }
-    s->cruise = planner_level_for_rate(feed);
-    s->cruise_period = last_period;
-    s->exit = planner_level_for_rate(exit_rate);
-    s->exit_brake = (uint16_t)(ramp_prefix[st_shape][s->exit] * st_accel);
-}
-
-uint8_t planner_line(int16_t dx, int16_t dy, uint16_t feed, uint16_t exit_rate, uint16_t seq)
-{
-    XDATA segment_t *s;
-    uint8_t dirs = 0;
-    if (dx == 0 && dy == 0) {
-        return E_OK;                /* nothing to move */
-    }
-    if (QUEUE_FREE() == 0) {
+    XDATA uint8_t *dst;
+    IDATA uint8_t *src;
+    uint8_t n;
+    if (QUEUE_NEXT(q_head) == q_tail) {
         return E_QUEUEFULL;
     }
-    s = next_slot();
-    if (dx < 0) { dx = -dx; dirs |= BIT_X_DIR; }
-    if (dy < 0) { dy = -dy; dirs |= BIT_Y_DIR; }
-    s->kind = SEG_LINE;
-    s->dirs = dirs;
-    s->seq = seq;
-    s->a = dx;
-    s->b = dy;
-    s->steps = (uint16_t)dx + (uint16_t)dy;
-    plan_speeds(s, feed, exit_rate);
+    plan.seq = plan_seq;
+    dst = (XDATA uint8_t *)&queue[q_head];
+    src = (IDATA uint8_t *)&plan;
+    n = sizeof(segment_t);
+    do {
+        *dst++ = *src++;
+    } while (--n);
     q_head = QUEUE_NEXT(q_head);
     return E_OK;
+}
+
+/* The highest ramp level whose rate does not exceed `rate`.  Also leaves in
+ * plan.exit_brake the hold steps (times the multiplier) of the levels up to
+ * it: the braking distance to that level. */
+static uint8_t level_for_rate(uint16_t rate)
+{
+    RAMP_ROM uint16_t *rates = ramp_rate[setting[SET_SHAPE]];
+    RAMP_ROM uint8_t *holds = &ramp_hold[setting[SET_SHAPE] ? RAMP_LEVELS : 0];
+    uint8_t k = 0;
+    uint16_t sum = (uint16_t)((uint8_t)holds[0] * (uint8_t)setting[SET_ACCEL]);
+    while (k < RAMP_LEVELS - 1 && rates[k + 1] <= rate) {
+        k++;
+        sum += (uint16_t)((uint8_t)holds[k] * (uint8_t)setting[SET_ACCEL]);
+    }
+    plan.exit_brake = sum;
+    return k;
+}
+
+/* Ramp fields shared by lines and arcs, then into the queue. */
+static uint8_t plan_motion(void)
+{
+    uint16_t top = ramp_rate[setting[SET_SHAPE]][RAMP_LEVELS - 1];
+    if (plan_arg[PLAN_FEED] == 0) plan_arg[PLAN_FEED] = setting[SET_FEED];
+    if (plan_arg[PLAN_FEED] < FEED_MIN) plan_arg[PLAN_FEED] = FEED_MIN;
+    if (plan_arg[PLAN_FEED] > top) plan_arg[PLAN_FEED] = top;
+    if (plan_arg[PLAN_EXIT] > plan_arg[PLAN_FEED]) plan_arg[PLAN_EXIT] = plan_arg[PLAN_FEED];
+    plan.cruise_period = HAL_PERIOD(CYCLES_PER_S / plan_arg[PLAN_FEED]);
+    plan.cruise = level_for_rate(plan_arg[PLAN_FEED]);
+    plan.exit = level_for_rate(plan_arg[PLAN_EXIT]);
+    return commit();
+}
+
+/* |v|; sets dir_bit in plan.dirs if v is negative. */
+static int16_t magnitude(int16_t v, uint8_t dir_bit)
+{
+    if (v < 0) {
+        plan.dirs |= dir_bit;
+        v = -v;
+    }
+    return v;
+}
+
+uint8_t planner_line(void)
+{
+    if (plan_arg[0] == 0 && plan_arg[1] == 0) {
+        return E_OK;                /* nothing to move */
+    }
+    plan.kind = SEG_LINE;
+    plan.dirs = 0;
+    plan.a = magnitude((int16_t)plan_arg[0], BIT_X_DIR);
+    plan.b = magnitude((int16_t)plan_arg[1], BIT_Y_DIR);
+    plan.steps = (uint16_t)plan.a + (uint16_t)plan.b;
+    return plan_motion();
 }
 
 /* Quadrant 0..3 (I..IV) of a point relative to the centre.  A point on an
  * axis belongs to the quadrant the arc is about to sweep through, so the
  * point where an arc crosses an axis already counts as the next quadrant.
- * The centre itself has no quadrant: 4. */
-static uint8_t arc_quadrant(int16_t x, int16_t y, uint8_t cw)
+ * The centre itself has no quadrant: 4.  Indexed by the signs of x and y
+ * (negative, zero, positive = 0, 1, 2) as 3 * x + y; the quadrant when
+ * turning counter-clockwise in bits 0-2, clockwise in bits 4-6. */
+#define QUADRANT(ccw, cw) ((ccw) | ((cw) << 4))
+static RAMP_ROM uint8_t quadrants[9] = {
+    QUADRANT(2, 2), QUADRANT(2, 1), QUADRANT(1, 1),     /* x < 0 */
+    QUADRANT(3, 2), QUADRANT(4, 4), QUADRANT(1, 0),     /* x = 0 */
+    QUADRANT(3, 3), QUADRANT(0, 3), QUADRANT(0, 0),     /* x > 0 */
+};
+
+static uint8_t arc_quadrant(int16_t x, int16_t y)
 {
-    if (cw) {
-        if (x >= 0 && y > 0) return 0;
-        if (x < 0 && y >= 0) return 1;
-        if (x <= 0 && y < 0) return 2;
-        if (x > 0) return 3;
-    } else {
-        if (x > 0 && y >= 0) return 0;
-        if (x <= 0 && y > 0) return 1;
-        if (x < 0 && y <= 0) return 2;
-        if (y < 0) return 3;
+    uint8_t k = (x < 0) ? 0 : (x == 0) ? 3 : 6;
+    k += (y < 0) ? 0 : (y == 0) ? 1 : 2;
+    k = quadrants[k];
+    return arc_cw ? (uint8_t)(k >> 4) : (uint8_t)(k & 0x0F);
+}
+
+/* Steps of the staircase between (x, y) and the point at radius arc_r on
+ * half-axis k (+X, +Y, -X, -Y = 0..3; 4: the centre) bounding the point's
+ * quadrant: it moves monotonically, and the point lies on the axis's side. */
+static uint16_t axis_steps(uint8_t k, int16_t x, int16_t y)
+{
+    uint16_t ax = (uint16_t)(x < 0 ? -x : x);
+    uint16_t ay = (uint16_t)(y < 0 ? -y : y);
+    if (k < 4) {
+        if (k & 1) {
+            ay = ay > arc_r ? ay - arc_r : arc_r - ay;
+        } else {
+            ax = ax > arc_r ? ax - arc_r : arc_r - ax;
+        }
     }
-    return 4;
+    return ax + ay;
 }
 
-/* How many quadrants the sweep advanced going from quadrant a to quadrant b. */
-#define ARC_ADVANCE(a, b, cw) ((uint8_t)((cw) ? ((a) - (b)) : ((b) - (a))) & 3)
-
-/* Steps of the staircase along one quadrant from half-axis k (+X, +Y, -X, -Y)
- * to the point (x, y), on a circle of radius r: it moves monotonically. */
-static uint16_t steps_from_axis(uint8_t k, int16_t r, int16_t x, int16_t y)
+static uint32_t mul(int16_t a, int16_t b)
 {
-    int16_t ax = (k == 0) ? r : (k == 2) ? -r : 0;
-    int16_t ay = (k == 1) ? r : (k == 3) ? -r : 0;
-    return (uint16_t)((ax > x ? ax - x : x - ax) + (ay > y ? ay - y : y - ay));
+    return (uint32_t)((int32_t)a * b);
 }
 
-static int32_t sq(int16_t v)
+/* A - B into *out if it is within -32767..32767; 0 if not. */
+static uint8_t difference(int16_t a, int16_t b, IDATA int16_t *out)
 {
-    return (int32_t)v * v;
+    int32_t t = (int32_t)a - b;
+    if (t > 32767 || t < -32767) {
+        return 0;
+    }
+    *out = (int16_t)t;
+    return 1;
 }
 
-uint8_t planner_arc(int16_t dx, int16_t dy, int16_t i, int16_t j, uint8_t clockwise,
-                    uint16_t feed, uint16_t exit_rate, uint16_t seq)
+/* Start and end in one quadrant: is the end behind the start (or on it),
+ * so that the arc goes all the way round? */
+static uint8_t arc_all_round(void)
 {
-    XDATA segment_t *s;
-    int16_t xs = -i, ys = -j, xe, ye;      /* start and end relative to the centre */
-    int32_t t;
-    uint16_t r;
-    uint8_t qs, qe, cross;
-    uint32_t steps;
+    arc_t = mul(plan.a, plan.d);            /* the cross product start x end */
+    arc_t -= mul(plan.b, plan.c);
+    if (arc_cw) arc_t = 0 - arc_t;
+    if ((int32_t)arc_t < 0) return 1;
+    return arc_t == 0 && plan.a == plan.c && plan.b == plan.d;
+}
 
-    t = (int32_t)dx - i;
-    if (t > 32767 || t < -32767) return E_RANGE;
-    xe = (int16_t)t;
-    t = (int32_t)dy - j;
-    if (t > 32767 || t < -32767) return E_RANGE;
-    ye = (int16_t)t;
-    t = sq(xs) + sq(ys);                    /* R^2, at most 2 * 32767^2 */
-    r = isqrt32((uint32_t)t);
-    if (r == 0) return E_ARC;               /* the centre is the start point */
-    if (r > 32767) return E_RANGE;
-    t -= sq(xe) + sq(ye);
-    if (t < 0) t = -t;
-    if ((uint32_t)t > 2UL * r + 1) return E_ARC;   /* end more than a step off the circle */
-    if (QUEUE_FREE() == 0) return E_QUEUEFULL;
+uint8_t planner_arc(uint8_t clockwise)
+{
+    uint8_t qe, cross;
 
-    clockwise = clockwise ? 1 : 0;
-    qs = arc_quadrant(xs, ys, clockwise);
-    qe = arc_quadrant(xe, ye, clockwise);
-    cross = ARC_ADVANCE(qs, qe, clockwise);
+    arc_cw = clockwise ? 1 : 0;
+    /* start and end relative to the centre */
+    plan.a = -(int16_t)plan_arg[2];
+    plan.b = -(int16_t)plan_arg[3];
+    if (!difference((int16_t)plan_arg[0], (int16_t)plan_arg[2], &plan.c)) return E_RANGE;
+    if (!difference((int16_t)plan_arg[1], (int16_t)plan_arg[3], &plan.d)) return E_RANGE;
+    arc_t = mul(plan.a, plan.a);            /* R^2, at most 2 * 32767^2 */
+    arc_t += mul(plan.b, plan.b);
+    arc_sqrt();
+    if (arc_r == 0) return E_ARC;           /* the centre is the start point */
+    if (arc_r > 32767) return E_RANGE;
+    arc_t -= mul(plan.c, plan.c);
+    arc_t -= mul(plan.d, plan.d);
+    if ((int32_t)arc_t < 0) arc_t = 0 - arc_t;
+    if (arc_t > 2UL * arc_r + 1) return E_ARC;   /* end more than a step off the circle */
+
+    plan.kind = clockwise ? SEG_ARC_CW : SEG_ARC_CCW;
+    plan.quadrant = arc_quadrant(plan.a, plan.b);
+    qe = arc_quadrant(plan.c, plan.d);
+    cross = (uint8_t)(arc_cw ? plan.quadrant - qe : qe - plan.quadrant) & 3;
+    if (cross == 0 && arc_all_round()) {
+        cross = 4;
+    }
     if (cross == 0) {
-        /* Same quadrant: ahead of the start, or all the way round. */
-        t = (int32_t)xs * ye - (int32_t)ys * xe;
-        if (clockwise) t = -t;
-        if (t < 0 || (t == 0 && xs == xe && ys == ye)) cross = 4;
-    }
-    if (cross == 0) {
-        steps = (uint16_t)((xs > xe ? xs - xe : xe - xs) + (ys > ye ? ys - ye : ye - ys));
+        arc_t = axis_steps(4, plan.a - plan.c, plan.b - plan.d);   /* same quadrant: no overflow */
     } else {
-        /* Quadrant q runs from half-axis q to q+1 counter-clockwise, q+1 to q clockwise. */
-        steps = steps_from_axis(clockwise ? qs : (qs + 1) & 3, (int16_t)r, xs, ys)
-              + (uint32_t)(cross - 1) * 2u * r
-              + steps_from_axis(clockwise ? (qe + 1) & 3 : qe, (int16_t)r, xe, ye);
+        /* Quadrant q runs from half-axis q to q+1 counter-clockwise, q+1 to q
+         * clockwise; between the start's and the end's quadrants lie cross - 1
+         * whole quadrants of 2r steps each. */
+        arc_t = axis_steps((uint8_t)(plan.quadrant + !arc_cw) & 3, plan.a, plan.b);
+        arc_t += axis_steps(qe == 4 ? (arc_cw ? 1 : 4) : (uint8_t)(qe + arc_cw) & 3, plan.c, plan.d);
+        for (qe = cross; qe > 1; qe--) {
+            arc_t += 2u * arc_r;
+        }
     }
-    s = next_slot();
-    s->kind = clockwise ? SEG_ARC_CW : SEG_ARC_CCW;
-    s->seq = seq;
-    s->a = xs;
-    s->b = ys;
-    s->c = xe;
-    s->d = ye;
-    s->quadrant = qs;
-    s->crossings = cross;
-    s->steps = steps > 65535UL ? 65535u : (uint16_t)steps;
-    plan_speeds(s, feed, exit_rate);
-    q_head = QUEUE_NEXT(q_head);
-    return E_OK;
+    plan.steps = arc_t > 65535UL ? 65535u : (uint16_t)arc_t;
+    plan.crossings = cross;
+    if (arc_cw) plan.quadrant |= 4;
+    return plan_motion();
 }
 
-static uint8_t plan_wait(uint8_t kind, uint8_t pen_bit, uint16_t ms, uint16_t seq)
+/* Pen and dwell: wait plan.steps milliseconds. */
+static uint8_t plan_wait(void)
 {
-    XDATA segment_t *s;
-    if (QUEUE_FREE() == 0) {
-        return E_QUEUEFULL;
-    }
-    s = next_slot();
-    s->kind = kind;
-    s->dirs = pen_bit;
-    s->seq = seq;
-    s->steps = ms;
-    s->cruise = 0;
-    s->exit = 0;
-    s->cruise_period = DWELL_PERIOD;
-    s->exit_brake = 0;
-    q_head = QUEUE_NEXT(q_head);
-    return E_OK;
+    plan.cruise = 0;
+    plan.exit = 0;
+    plan.cruise_period = HAL_PERIOD(DWELL_PERIOD);
+    plan.exit_brake = 0;
+    return commit();
 }
 
-uint8_t planner_pen(uint8_t down, uint16_t seq)
+uint8_t planner_pen(uint8_t down)
 {
-    return plan_wait(SEG_PEN, down ? BIT_PEN : 0, pen_delay_ms ? pen_delay_ms : 1, seq);
+    plan.kind = SEG_PEN;
+    plan.dirs = down ? BIT_PEN : 0;
+    plan.steps = setting[SET_PEN] ? setting[SET_PEN] : 1;
+    return plan_wait();
 }
 
-uint8_t planner_dwell(uint16_t ms, uint16_t seq)
+uint8_t planner_dwell(uint16_t ms)
 {
     if (ms == 0) {
         return E_OK;
     }
-    return plan_wait(SEG_DWELL, 0, ms, seq);
+    plan.kind = SEG_DWELL;
+    plan.dirs = 0;
+    plan.steps = ms;
+    return plan_wait();
 }

@@ -26,21 +26,35 @@ extern FAST volatile uint8_t q_head, q_tail;   /* head: planner writes, tail: in
 
 /* A ring of QUEUE_SIZE + 1 slots: one stays empty so that full and empty differ. */
 #define QUEUE_SLOTS (QUEUE_SIZE + 1)
-#define QUEUE_NEXT(i) ((uint8_t)((i) + 1 == QUEUE_SLOTS ? 0 : (i) + 1))
+#define QUEUE_NEXT(i) ((uint8_t)((i) == QUEUE_SLOTS - 1 ? 0 : (uint8_t)((i) + 1)))
 
 uint8_t queue_used(void);
 #define QUEUE_FREE() ((uint8_t)(QUEUE_SIZE - queue_used()))
 
-uint8_t planner_level_for_rate(uint16_t rate);
-uint8_t planner_line(int16_t dx, int16_t dy, uint16_t feed, uint16_t exit_rate, uint16_t seq);
-uint8_t planner_arc(int16_t dx, int16_t dy, int16_t i, int16_t j, uint8_t clockwise,
-                    uint16_t feed, uint16_t exit_rate, uint16_t seq);
-uint8_t planner_pen(uint8_t down, uint16_t seq);
-uint8_t planner_dwell(uint16_t ms, uint16_t seq);
-void planner_flush(void);
-uint16_t isqrt32(uint32_t v);
+/* The numbers of the command to plan, set by the caller (the protocol) before
+ * planner_line / planner_arc, in the order of the protocol's arguments:
+ * dx, dy, then for an arc the centre i, j (relative to the start), all
+ * -32767..32767; the feed and the exit rate in steps/s (0: the default feed,
+ * resp. stop at the end) always at PLAN_FEED and PLAN_EXIT.  Arguments in
+ * memory rather than as parameters: SDCC would give each function's eight
+ * parameters their own bytes of the scarce direct RAM. */
+#define PLAN_FEED 4
+#define PLAN_EXIT 5
+extern IDATA uint16_t plan_arg[6];  /* coordinates as int16_t */
+extern IDATA uint16_t plan_seq;   /* sequence number of the command (0 when typed) */
 
-extern uint16_t default_feed;   /* steps/s when a command gives none */
-extern uint16_t pen_delay_ms;   /* settle time after a pen change */
+uint8_t planner_line(void);
+uint8_t planner_arc(uint8_t clockwise);
+uint8_t planner_pen(uint8_t down);
+uint8_t planner_dwell(uint16_t ms);
+void planner_flush(void);
+
+/* The settings $0..$3 of the protocol; changed only while idle. */
+#define SET_ACCEL 0     /* acceleration divisor: each ramp level is held this many times longer */
+#define SET_SHAPE 1     /* RAMP_TRAPEZOID or RAMP_EXPONENTIAL */
+#define SET_FEED  2     /* steps/s when a command gives none */
+#define SET_PEN   3     /* settle time after a pen change, ms */
+#define SETTINGS  4
+extern IDATA uint16_t setting[SETTINGS];
 
 #endif

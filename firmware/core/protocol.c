@@ -5,55 +5,83 @@
  * that carry a sequence number (N...) must also carry a valid checksum; they
  * are executed exactly once, in order: a repeat of an executed number is
  * acknowledged again without running, a gap or a damaged line asks the host
- * to resend from the expected number. */
+ * to resend from the expected number.
+ *
+ * Written for an 8 KB part: the state the functions share is global (SDCC
+ * gives every local of a non-leaf function a fixed address anyway), flags
+ * are bits, and constant text is assembled by the preprocessor. */
 #include "protocol.h"
 #include "planner.h"
 #include "stepper.h"
 #include "serial.h"
 #include "ramp.h"
 
+#define STR(x) #x
+#define XSTR(x) STR(x)
+
 uint8_t alarm_code;
 
 static IDATA char line[LINE_MAX + 1];
-static uint8_t line_len;
-static uint8_t line_xor;          /* XOR of the bytes before '*' */
-static uint8_t line_star;         /* index of '*' + 1, 0 if none */
-static uint8_t line_long;         /* the line overflowed LINE_MAX */
-static uint16_t expected_seq;     /* next sequence number to execute */
-static uint8_t resend_asked;      /* an rs is outstanding: drop later lines quietly */
+static FAST uint8_t line_len;
+static FAST uint8_t line_xor;     /* XOR of the bytes before '*' */
+static FAST uint8_t line_star;    /* index of '*' + 1, 0 if none */
+static FLAG line_long;            /* the line overflowed LINE_MAX */
+static FLAG resend_asked;         /* an rs is outstanding: drop later lines quietly */
+static FLAG machine;              /* the line being executed is in machine form */
+static IDATA uint16_t expected_seq;  /* next sequence number to execute */
 
-static uint8_t cur;               /* parse cursor into line[] */
-static IDATA uint16_t arg_mag[6];  /* magnitudes of the arguments */
-static uint8_t arg_neg;           /* bit k set: argument k is negative */
-static uint8_t nargs;
+static IDATA char *FAST cur;      /* parse cursor into line[] */
+static IDATA char *FAST end;      /* end of the command: the line's end, or its '*' */
+static FAST uint8_t arg_neg;      /* bit k set: argument k is negative */
+static FAST uint8_t nargs;
+/* The arguments' magnitudes are parsed straight into the planner's argument
+ * block; a command turns them into its numbers in place. */
+#define arg_mag plan_arg
 
-static void put_str(const char *s)
+static IDATA uint32_t num;        /* the number put_num prints */
+
+static void put_str(const ROM char *s)
 {
-    while (*s) {
-        hal_putc((uint8_t)*s++);
+    char c;
+    while ((c = *s++) != 0) {
+        hal_putc((uint8_t)c);
     }
 }
 
-static RAMP_ROM uint32_t powers[] = {1000000000UL, 100000000UL, 10000000UL, 1000000UL,
-                                     100000UL, 10000UL, 1000UL, 100UL, 10UL, 1UL};
-
-/* Decimal without division: the 8051 has no 32-bit divide. */
-static void put_i32(int32_t sv)
+static void put_eol(void)
 {
-    uint32_t v;
+    hal_putc('\r');
+    hal_putc('\n');
+}
+
+static RAMP_ROM uint32_t powers_of_ten[10] = {
+    1000000000UL, 100000000UL, 10000000UL, 1000000UL, 100000UL, 10000UL, 1000UL, 100UL, 10UL, 1UL,
+};
+
+/* The decimal digit of num at powers_of_ten[k], taken off num: repeated
+ * subtraction, as the 8051 has no 32-bit divide (the library's is long). */
+static uint8_t num_digit(uint8_t k)
+{
+    uint32_t p = powers_of_ten[k];
+    uint8_t d = 0;
+    while (num >= p) {
+        num -= p;
+        d++;
+    }
+    return d;
+}
+
+/* num in decimal, with a '-' if it is negative as an int32; most
+ * significant digit first, so no buffer is needed. */
+static void put_num(void)
+{
     uint8_t k, d, started = 0;
-    if (sv < 0) {
+    if ((int32_t)num < 0) {
         hal_putc('-');
-        v = (uint32_t)(-sv);
-    } else {
-        v = (uint32_t)sv;
+        num = 0 - num;
     }
     for (k = 0; k < 10; k++) {
-        d = 0;
-        while (v >= powers[k]) {
-            v -= powers[k];
-            d++;
-        }
+        d = num_digit(k);
         if (d || started || k == 9) {
             hal_putc((uint8_t)('0' + d));
             started = 1;
@@ -61,17 +89,17 @@ static void put_i32(int32_t sv)
     }
 }
 
-static void put_field(char tag, int32_t v)
+static void put_u16(uint16_t v)
+{
+    num = v;
+    put_num();
+}
+
+/* " <tag>", the start of a field */
+static void put_tag(char tag)
 {
     hal_putc(' ');
     hal_putc((uint8_t)tag);
-    put_i32(v);
-}
-
-static void put_eol(void)
-{
-    hal_putc('\r');
-    hal_putc('\n');
 }
 
 void protocol_init(void)
@@ -83,29 +111,39 @@ void protocol_init(void)
     expected_seq = 0;
     resend_asked = 0;
     alarm_code = 0;
-    put_str(FW_NAME " " FW_VERSION " ready");
-    put_eol();
+    put_str(FW_NAME " " FW_VERSION " ready\r\n");
 }
 
 static void report_status(void)
 {
-    int32_t x, y;
+    static IDATA int32_t pos[2];
+    static IDATA uint16_t seq;
     HAL_CRITICAL_BEGIN();
-    x = pos_x;
-    y = pos_y;
+    pos[0] = POS_READ(pos_x);
+    pos[1] = POS_READ(pos_y);
+    seq = st_seg.seq;
     HAL_CRITICAL_END();
     hal_putc('<');
     put_str(alarm_code ? "Alarm" : st_hold ? "Hold" : st_running ? "Run" : "Idle");
-    put_field('X', x);
-    put_field('Y', y);
-    put_field('Q', QUEUE_FREE());
-    put_field('N', expected_seq);
-    put_field('S', st_seq);
-    put_field('P', (st_port & BIT_PEN) ? 1 : 0);
-    put_field('U', st_underruns);
-    put_field('A', alarm_code);
-    hal_putc('>');
-    put_eol();
+    put_tag('X');
+    num = (uint32_t)pos[0];
+    put_num();
+    put_tag('Y');
+    num = (uint32_t)pos[1];
+    put_num();
+    put_tag('Q');
+    put_u16(QUEUE_FREE());
+    put_tag('N');
+    put_u16(expected_seq);
+    put_tag('S');
+    put_u16(seq);
+    put_tag('P');
+    put_u16((st_port & BIT_PEN) ? 1 : 0);
+    put_tag('U');
+    put_u16(st_underruns);
+    put_tag('A');
+    put_u16(alarm_code);
+    put_str(">\r\n");
 }
 
 void protocol_alarm(uint8_t code)
@@ -115,69 +153,71 @@ void protocol_alarm(uint8_t code)
     planner_flush();
     st_hold = 0;
     alarm_code = code;
-    put_str(code == ALARM_ESTOP ? "[alarm estop]" : "[alarm limit]");
-    put_eol();
+    put_str(code == ALARM_ESTOP ? "[alarm estop]\r\n" : "[alarm limit]\r\n");
 }
 
-static const char *error_text(uint8_t code)
-{
-    switch (code) {
-    case E_UNKNOWN:   return "unknown command";
-    case E_CHECKSUM:  return "checksum";
-    case E_NUMBER:    return "bad number";
-    case E_TOOLONG:   return "line too long";
-    case E_QUEUEFULL: return "queue full";
-    case E_ARGS:      return "argument count";
-    case E_SEQUENCE:  return "sequence gap";
-    case E_ARC:       return "bad arc";
-    case E_ALARM:     return "alarm, reset first";
-    case E_BUSY:      return "busy, wait for idle";
-    default:          return "out of range";
-    }
-}
+static const ROM char *const ROM error_texts[] = {
+    "unknown command",          /* E_UNKNOWN */
+    "checksum",                 /* E_CHECKSUM */
+    "bad number",               /* E_NUMBER */
+    "line too long",            /* E_TOOLONG */
+    "queue full",               /* E_QUEUEFULL */
+    "argument count",           /* E_ARGS */
+    "sequence gap",             /* E_SEQUENCE */
+    "bad arc",                  /* E_ARC */
+    "alarm, reset first",       /* E_ALARM */
+    "busy, wait for idle",      /* E_BUSY */
+    "out of range",             /* E_RANGE */
+};
 
-/* Parse one decimal integer (optional sign) at the cursor: magnitude into
- * *mag, returns 1 for positive, 2 for negative, 0 if there is no number. */
-static uint8_t parse_num(uint16_t *mag)
+static uint8_t is_separator(char c)
 {
-    uint16_t acc = 0;
-    uint8_t sign = 1, digits = 0, d;
-    char c = line[cur];
-    if (c == '-' || c == '+') {
-        sign = (c == '-') ? 2 : 1;
-        c = line[++cur];
-    }
-    while (c >= '0' && c <= '9') {
-        d = (uint8_t)(c - '0');
-        if (acc > 6553u) return 0;
-        acc = (uint16_t)((acc << 3) + (acc << 1));
-        acc += d;
-        if (acc < d) return 0;            /* wrapped past 65535 */
-        digits++;
-        c = line[++cur];
-    }
-    if (!digits) return 0;
-    *mag = acc;
-    return sign;
-}
-
-/* An unsigned number 0..65535 at the cursor. */
-static uint8_t parse_u16(uint16_t *v)
-{
-    return parse_num(v) == 1;
+    return c == ' ' || c == ',' || c == '\t';
 }
 
 static void skip_separators(void)
 {
-    while (line[cur] == ' ' || line[cur] == ',' || line[cur] == '\t') {
+    while (is_separator(*cur)) {
         cur++;
     }
 }
 
-/* Parse the arguments after the command letter, up to the end or '*'. */
-static uint8_t parse_args(uint8_t end)
+/* Parse one decimal integer (optional sign) at the cursor: magnitude into
+ * *mag, returns 1 for positive, 2 for negative, 0 if there is no number or
+ * it is over 65535. */
+static uint8_t parse_num(IDATA uint16_t *mag)
 {
-    uint8_t sign;
+    IDATA char *first;
+    uint16_t acc = 0;
+    uint8_t sign = 1, d;
+    if (*cur == '-') {
+        sign = 2;
+        cur++;
+    } else if (*cur == '+') {
+        cur++;
+    }
+    first = cur;
+    while ((d = (uint8_t)(*cur - '0')) <= 9) {
+        if (acc > 6553u) return 0;
+        acc = (uint16_t)((acc << 3) + (acc << 1)) + d;
+        if (acc < d) return 0;            /* wrapped past 65535 */
+        cur++;
+    }
+    if (cur == first) return 0;
+    *mag = acc;
+    return sign;
+}
+
+/* An unsigned number 0..65535 at the cursor, into arg_mag[0]. */
+static uint8_t parse_u16(void)
+{
+    return parse_num(&arg_mag[0]) == 1;
+}
+
+/* Parse the arguments after the command letter, up to the end. */
+static uint8_t parse_args(void)
+{
+    uint8_t sign, bit = 1;
     nargs = 0;
     arg_neg = 0;
     skip_separators();
@@ -185,9 +225,10 @@ static uint8_t parse_args(uint8_t end)
         if (nargs == 6 || !(sign = parse_num(&arg_mag[nargs]))) {
             return E_NUMBER;
         }
-        if (sign == 2) arg_neg |= (uint8_t)(1 << nargs);
+        if (sign == 2) arg_neg |= bit;
+        bit <<= 1;
         nargs++;
-        if (cur < end && line[cur] != ' ' && line[cur] != ',' && line[cur] != '\t') {
+        if (cur < end && !is_separator(*cur)) {
             return E_NUMBER;
         }
         skip_separators();
@@ -195,95 +236,71 @@ static uint8_t parse_args(uint8_t end)
     return E_OK;
 }
 
-/* Argument k as a coordinate, -32767..32767. */
-static uint8_t arg_i16(uint8_t k, int16_t *out)
+/* L dx dy [feed [exit]], C/A dx dy i j [feed [exit]]: check the numbers and
+ * hand them to the planner, feed and exit at PLAN_FEED and PLAN_EXIT. */
+static uint8_t cmd_motion(char cmd)
 {
-    if (arg_mag[k] > 32767u) return 0;
-    *out = (arg_neg & (1 << k)) ? -(int16_t)arg_mag[k] : (int16_t)arg_mag[k];
-    return 1;
-}
-
-/* Argument k as a count or rate, 0..65535. */
-static uint8_t arg_u16(uint8_t k, uint16_t *out)
-{
-    if (arg_neg & (1 << k)) return 0;
-    *out = arg_mag[k];
-    return 1;
-}
-
-static uint8_t cmd_motion(char cmd, uint16_t seq)
-{
-    int16_t v[4];
-    uint16_t feed = 0, exit_rate = 0;
-    uint8_t coords = (cmd == 'L') ? 2 : 4, k;
-    if (nargs < coords || nargs > coords + 2) return E_ARGS;
-    for (k = 0; k < coords; k++) {
-        if (!arg_i16(k, &v[k])) return E_RANGE;
+    static IDATA uint8_t coords;
+    uint8_t k, bit = 1;
+    coords = (cmd == 'L') ? 2 : 4;
+    if (nargs < coords || nargs > (uint8_t)(coords + 2)) return E_ARGS;
+    for (k = 0; k < nargs; k++, bit <<= 1) {
+        if (k < coords) {
+            if (arg_mag[k] > 32767u) return E_RANGE;  /* coordinates: -32767..32767 */
+            if (arg_neg & bit) arg_mag[k] = 0 - arg_mag[k];
+        } else if (arg_neg & bit) {
+            return E_RANGE;                           /* feed and exit are not negative */
+        }
     }
-    if (nargs > coords && !arg_u16(coords, &feed)) return E_RANGE;
-    if (nargs > coords + 1 && !arg_u16(coords + 1, &exit_rate)) return E_RANGE;
+    while (nargs < (uint8_t)(coords + 2)) {
+        arg_mag[nargs++] = 0;                         /* feed, exit default to 0 */
+    }
     if (alarm_code) return E_ALARM;
     if (cmd == 'L') {
-        return planner_line(v[0], v[1], feed, exit_rate, seq);
+        arg_mag[PLAN_FEED] = arg_mag[2];
+        arg_mag[PLAN_EXIT] = arg_mag[3];
+        return planner_line();
     }
-    return planner_arc(v[0], v[1], v[2], v[3], cmd == 'C', feed, exit_rate, seq);
+    return planner_arc(cmd == 'C');
 }
 
 /* $0 acceleration divisor, $1 ramp shape, $2 default feed, $3 pen delay. */
-#define SETTINGS 4
 static RAMP_ROM uint16_t setting_min[SETTINGS] = {1, 0, 15, 1};
 static RAMP_ROM uint16_t setting_max[SETTINGS] = {50, 1, 65535u, 5000};
 
-static uint16_t setting_get(uint8_t k)
+static uint8_t cmd_setting(void)
 {
-    switch (k) {
-    case 0: return st_accel;
-    case 1: return st_shape;
-    case 2: return default_feed;
-    default: return pen_delay_ms;
-    }
-}
-
-static uint8_t cmd_setting(uint8_t end)
-{
-    uint16_t key, value;
-    uint8_t k;
+    static IDATA uint8_t key;
     if (cur >= end) {
-        for (k = 0; k < SETTINGS; k++) {
+        for (key = 0; key < SETTINGS; key++) {
             hal_putc('$');
-            put_i32(k);
+            hal_putc((uint8_t)('0' + key));
             hal_putc('=');
-            put_i32(setting_get(k));
+            put_u16(setting[key]);
             put_eol();
         }
         return E_OK;
     }
-    if (line[cur] == 'I' && cur + 1 == end) {
-        put_str("[" FW_NAME " " FW_VERSION);
-        put_field('Q', QUEUE_SIZE);
-        put_field('B', RX_SIZE);
-        put_field('R', ramp_rate[st_shape][0]);
-        put_field('T', ramp_rate[st_shape][RAMP_LEVELS - 1]);
-        put_field('A', ramp_accel_trap);
-        hal_putc(']');
-        put_eol();
+    if (*cur == 'I' && cur + 1 == end) {
+        put_str("[" FW_NAME " " FW_VERSION " Q" XSTR(QUEUE_SIZE) " B" XSTR(RX_SIZE) " R");
+        put_u16(ramp_rate[setting[SET_SHAPE]][0]);
+        put_tag('T');
+        put_u16(ramp_rate[setting[SET_SHAPE]][RAMP_LEVELS - 1]);
+        put_str(" A" XSTR(RAMP_ACCEL_TRAP) "]\r\n");
         return E_OK;
     }
-    if (!parse_u16(&key) || line[cur] != '=') return E_NUMBER;
+    if (!parse_u16() || *cur != '=') return E_NUMBER;
+    key = arg_mag[0] < SETTINGS ? (uint8_t)arg_mag[0] : SETTINGS;
     cur++;
-    if (!parse_u16(&value) || cur != end) return E_NUMBER;
-    if (key >= SETTINGS || value < setting_min[key] || value > setting_max[key]) return E_RANGE;
+    if (!parse_u16() || cur != end) return E_NUMBER;
+    if (key >= SETTINGS || arg_mag[0] < setting_min[key] || arg_mag[0] > setting_max[key]) return E_RANGE;
     if (st_running || queue_used()) return E_BUSY;
-    switch ((uint8_t)key) {
-    case 0: st_accel = (uint8_t)value; break;
-    case 1: st_shape = (uint8_t)value; break;
-    case 2: default_feed = value; break;
-    default: pen_delay_ms = value; break;
-    }
+    setting[key] = arg_mag[0];
     return E_OK;
 }
 
-static uint8_t run_command(uint8_t end, uint16_t seq)
+/* The command in cur..end, as command number plan_seq. */
+static uint8_t run_command(void)
 {
     char cmd;
     uint8_t err;
@@ -291,23 +308,23 @@ static uint8_t run_command(uint8_t end, uint16_t seq)
     if (cur >= end) {
         return E_OK;                      /* empty line */
     }
-    cmd = line[cur++];
+    cmd = *cur++;
     if (cmd == '$') {
-        return cmd_setting(end);
+        return cmd_setting();
     }
-    err = parse_args(end);
+    err = parse_args();
     if (err) return err;
     switch (cmd) {
     case 'L':
     case 'C':
     case 'A':
-        return cmd_motion(cmd, seq);
+        return cmd_motion(cmd);
     case 'P':
     case 'D':
         if (nargs != 1) return E_ARGS;
         if (arg_neg || (cmd == 'P' && arg_mag[0] > 1)) return E_RANGE;
         if (alarm_code) return E_ALARM;
-        return cmd == 'P' ? planner_pen((uint8_t)arg_mag[0], seq) : planner_dwell(arg_mag[0], seq);
+        return cmd == 'P' ? planner_pen((uint8_t)arg_mag[0]) : planner_dwell(arg_mag[0]);
     case 'H':
         if (nargs != 0) return E_ARGS;
         if (st_running || queue_used()) return E_BUSY;
@@ -321,86 +338,97 @@ static uint8_t run_command(uint8_t end, uint16_t seq)
     }
 }
 
-static void reply_ok(uint8_t machine, uint16_t seq)
+/* "ok" or "err", then " N<seq>" for a machine line. */
+static void reply_start(const ROM char *word)
 {
-    put_str("ok");
-    if (machine) put_field('N', seq);
-    put_field('Q', QUEUE_FREE());
+    put_str(word);
+    if (machine) {
+        put_tag('N');
+        put_u16(plan_seq);
+    }
+}
+
+static void reply_ok(void)
+{
+    reply_start("ok");
+    put_tag('Q');
+    put_u16(QUEUE_FREE());
     put_eol();
 }
 
-static void reply_err(uint8_t machine, uint16_t seq, uint8_t code)
+static void reply_err(uint8_t code)
 {
-    put_str("err");
-    if (machine) put_field('N', seq);
-    put_field('E', code);
+    reply_start("err");
+    put_tag('E');
+    put_u16(code);
     hal_putc(' ');
-    put_str(error_text(code));
+    put_str(error_texts[code - 1]);
     put_eol();
 }
 
 static void reply_resend(uint8_t code)
 {
-    put_str("rs");
-    put_field('N', expected_seq);
-    put_field('E', code);
+    put_str("rs N");
+    put_u16(expected_seq);
+    put_tag('E');
+    put_u16(code);
     put_eol();
     resend_asked = 1;
 }
 
 static void execute_line(void)
 {
-    uint16_t seq, sum;
-    uint8_t end = line_len, err, machine;
-    int16_t ahead;
+    uint8_t err;
 
     line[line_len] = 0;
-    cur = 0;
+    cur = line;
+    end = line + line_len;
     skip_separators();
-    machine = (line[cur] == 'N') || line_star;
+    machine = (*cur == 'N') || line_star;
     if (line_long) {
-        if (machine) reply_resend(E_TOOLONG); else reply_err(0, 0, E_TOOLONG);
+        if (machine) reply_resend(E_TOOLONG); else reply_err(E_TOOLONG);
         return;
     }
     if (!machine) {
-        err = run_command(end, 0);
-        if (err) reply_err(0, 0, err); else reply_ok(0, 0);
+        plan_seq = 0;
+        err = run_command();
+        if (err) reply_err(err); else reply_ok();
         return;
     }
     /* N<seq> <command> *<checksum> */
-    end = line_star ? (uint8_t)(line_star - 1) : 0;
-    if (line[cur] != 'N' || !line_star) {
+    if (*cur != 'N' || !line_star) {
         reply_resend(E_CHECKSUM);
         return;
     }
-    cur = line_star;
-    if (!parse_u16(&sum) || line[cur] != 0 || sum != line_xor) {
+    end = line + (uint8_t)(line_star - 1);
+    cur = line + line_star;
+    if (!parse_u16() || *cur != 0 || arg_mag[0] != line_xor) {
         reply_resend(E_CHECKSUM);
         return;
     }
-    cur = 1;
-    while (line[cur] == ' ') cur++;
-    if (!parse_u16(&seq)) {
+    cur = line + 1;
+    while (*cur == ' ') cur++;
+    if (!parse_u16()) {
         reply_resend(E_CHECKSUM);
         return;
     }
-    ahead = (int16_t)(seq - expected_seq);
-    if (ahead < 0) {
-        reply_ok(1, seq);                 /* already executed: acknowledge again */
-        return;
-    }
-    if (ahead > 0) {
-        if (!resend_asked) reply_resend(E_SEQUENCE);
+    plan_seq = arg_mag[0];
+    if (plan_seq != expected_seq) {
+        if ((int16_t)(plan_seq - expected_seq) < 0) {
+            reply_ok();                   /* already executed: acknowledge again */
+        } else if (!resend_asked) {
+            reply_resend(E_SEQUENCE);
+        }
         return;
     }
     resend_asked = 0;
-    err = run_command(end, seq);
+    err = run_command();
     if (err == E_QUEUEFULL) {
         reply_resend(E_QUEUEFULL);        /* not executed: the host sends it again */
         return;
     }
     expected_seq++;
-    if (err) reply_err(1, seq, err); else reply_ok(1, seq);
+    if (err) reply_err(err); else reply_ok();
 }
 
 static void receive_byte(uint8_t c)
@@ -429,33 +457,31 @@ static void receive_byte(uint8_t c)
 
 void protocol_poll(void)
 {
-    uint8_t flags = rt_flags;
-
-    if (flags & (RTF_ESTOP | RTF_RESET)) {
-        rt_flags &= (uint8_t)~(RTF_ESTOP | RTF_RESET);
+    if (rt_estop || rt_reset) {
+        rt_reset = 0;
         HAL_TIMER_HALT();
-        stepper_abort();
-        planner_flush();
-        st_hold = 0;
         rx_tail = rx_flush_to;
         line_len = 0;
         line_xor = 0;
         line_star = 0;
         line_long = 0;
-        if (flags & RTF_ESTOP) {
+        if (rt_estop) {
+            rt_estop = 0;
             protocol_alarm(ALARM_ESTOP);
         } else {
+            stepper_abort();
+            planner_flush();
+            st_hold = 0;
             alarm_code = 0;
-            put_str("[reset]");
-            put_eol();
+            put_str("[reset]\r\n");
         }
     }
-    if (flags & RTF_RESUME) {
-        rt_flags &= (uint8_t)~RTF_RESUME;
+    if (rt_resume) {
+        rt_resume = 0;
         stepper_resume();
     }
-    if (flags & RTF_STATUS) {
-        rt_flags &= (uint8_t)~RTF_STATUS;
+    if (rt_status) {
+        rt_status = 0;
         report_status();
     }
     if (rx_overflow) {

@@ -2,28 +2,27 @@
  *
  * A speed is a level 0..RAMP_LEVELS-1.  Level k is held for
  * ramp_hold[shape][k] * accel_multiplier steps before the next level, so the
- * steps needed to brake from level k to level e are
- * (ramp_prefix[k-1] - ramp_prefix[e]) * multiplier: no division anywhere. */
+ * steps needed to brake from level k down to level e are a sum of holds:
+ * no division anywhere.  The step interrupt reads the one-dimensional tables
+ * with index shape * RAMP_LEVELS + level: a single `movc` per byte. */
 #ifndef RAMP_H
 #define RAMP_H
 
-#include <stdint.h>
+#include "config.h"
+#include "hal.h"
 
 #define RAMP_SHAPES 2
 #define RAMP_LEVELS 64
 #define RAMP_TRAPEZOID   0
 #define RAMP_EXPONENTIAL 1
 
-#ifdef __SDCC
-#define RAMP_ROM const __code
-#else
-#define RAMP_ROM const
-#endif
+#define RAMP_ROM const ROM
 
-extern RAMP_ROM uint16_t ramp_period[RAMP_SHAPES][RAMP_LEVELS];  /* machine cycles per step */
+/* Step period of each level as HAL_PERIOD(machine cycles), low and high byte. */
+extern RAMP_ROM uint8_t  ramp_period_lo[RAMP_SHAPES * RAMP_LEVELS];
+extern RAMP_ROM uint8_t  ramp_period_hi[RAMP_SHAPES * RAMP_LEVELS];
+extern RAMP_ROM uint8_t  ramp_hold[RAMP_SHAPES * RAMP_LEVELS];   /* steps per level at multiplier 1 */
 extern RAMP_ROM uint16_t ramp_rate[RAMP_SHAPES][RAMP_LEVELS];    /* steps per second */
-extern RAMP_ROM uint8_t  ramp_hold[RAMP_SHAPES][RAMP_LEVELS];    /* steps per level at multiplier 1 */
-extern RAMP_ROM uint16_t ramp_prefix[RAMP_SHAPES][RAMP_LEVELS];  /* running sum of ramp_hold */
-extern RAMP_ROM uint32_t ramp_accel_trap;  /* trapezoid acceleration at divisor 1, steps/s^2 */
+#define RAMP_ACCEL_TRAP 100000    /* trapezoid acceleration at divisor 1, steps/s^2 (tools/gen_ramp.py) */
 
 #endif

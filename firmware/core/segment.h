@@ -1,6 +1,7 @@
 /* segment.h - one queued command as the step interrupt consumes it.
  * The planner fills every field outside the interrupt (all divisions and
- * square roots happen there); the interrupt only copies and steps. */
+ * square roots happen there); the interrupt copies the slot into internal RAM
+ * and steps. */
 #ifndef SEGMENT_H
 #define SEGMENT_H
 
@@ -19,12 +20,12 @@ typedef struct {
     int16_t  a, b;          /* line: |dx|, |dy|; arc: start relative to the centre */
     int16_t  c, d;          /* arc: end relative to the centre */
     uint16_t steps;         /* line: exact; arc: estimate; pen/dwell: milliseconds */
-    uint8_t  quadrant;      /* arc: quadrant of the start, 0..3 = I..IV */
+    uint8_t  quadrant;      /* arc: 4 if clockwise, plus the quadrant of the start 0..3 = I..IV */
     uint8_t  crossings;     /* arc: axis crossings before the final quadrant */
     uint8_t  cruise;        /* ramp level to accelerate to */
     uint8_t  exit;          /* ramp level to leave the segment at */
-    uint16_t cruise_period; /* machine cycles per step at the commanded feed */
-    uint16_t exit_brake;    /* ramp prefix steps below the exit level, scaled */
+    uint16_t cruise_period; /* HAL_PERIOD(machine cycles per step at the commanded feed) */
+    uint16_t exit_brake;    /* hold steps of the ramp levels up to the exit level, scaled */
 } segment_t;
 
 #endif

@@ -5,5 +5,5 @@
 XDATA uint8_t rx_buf[RX_SIZE];
 FAST volatile uint8_t rx_head, rx_tail;
 FAST volatile uint8_t rx_flush_to;
-FAST volatile uint8_t rx_overflow;
-FAST volatile uint8_t rt_flags;
+volatile FLAG rx_overflow;
+volatile FLAG rt_status, rt_resume, rt_estop, rt_reset;

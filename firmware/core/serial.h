@@ -11,28 +11,24 @@
 #include "hal.h"
 #include "stepper.h"
 
-#define RTF_STATUS 0x01
-#define RTF_RESUME 0x02
-#define RTF_ESTOP  0x04
-#define RTF_RESET  0x08
-
 extern XDATA uint8_t rx_buf[RX_SIZE];
 extern FAST volatile uint8_t rx_head, rx_tail;
 extern FAST volatile uint8_t rx_flush_to;   /* on reset/e-stop: drop input received before it */
-extern FAST volatile uint8_t rx_overflow;
-extern FAST volatile uint8_t rt_flags;
+extern volatile FLAG rx_overflow;           /* bytes were lost to a full ring */
+/* Real-time requests for the main loop. */
+extern volatile FLAG rt_status, rt_resume, rt_estop, rt_reset;
 
 #define SERIAL_RX_BYTE(c) do {                                              \
     if ((c) == RT_STATUS) {                                                 \
-        rt_flags |= RTF_STATUS;                                             \
+        rt_status = 1;                                                      \
     } else if ((c) == RT_HOLD) {                                            \
         st_hold = 1;                                                        \
     } else if ((c) == RT_RESUME) {                                          \
-        rt_flags |= RTF_RESUME;                                             \
+        rt_resume = 1;                                                      \
     } else if ((c) == RT_ESTOP || (c) == RT_RESET) {                        \
         HAL_TIMER_HALT();                                                   \
         rx_flush_to = rx_head;                                              \
-        rt_flags |= ((c) == RT_ESTOP) ? RTF_ESTOP : RTF_RESET;              \
+        if ((c) == RT_ESTOP) rt_estop = 1; else rt_reset = 1;               \
     } else if ((uint8_t)(rx_head - rx_tail) < RX_SIZE) {                    \
         rx_buf[rx_head & (RX_SIZE - 1)] = (c);                              \
         rx_head++;                                                          \

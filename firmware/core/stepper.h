@@ -5,17 +5,25 @@
 
 #include "config.h"
 #include "hal.h"
+#include "segment.h"
 
-extern FAST volatile int32_t pos_x, pos_y;    /* absolute position, steps */
-extern FAST volatile uint8_t st_running;      /* timer running or paused mid-queue */
-extern FAST volatile uint8_t st_paused;       /* stopped by a feed hold */
-extern FAST volatile uint8_t st_hold;         /* feed hold requested */
-extern FAST volatile uint16_t st_seq;         /* sequence number of the current command */
+/* Absolute position in steps.  Only the step interrupt changes it; code
+ * outside it reads (or clears) it with interrupts masked and through
+ * POS_READ, which forces a fresh read.  Not volatile itself, so that the
+ * interrupt's increments stay a few instructions. */
+extern FAST int32_t pos_x, pos_y;
+#define POS_READ(v) (*(volatile FAST int32_t *)&(v))
+
+/* The segment being executed, copied from its queue slot and worked on in
+ * place (steps: steps left); seq stays that of the last command started. */
+extern FAST segment_t st_seg;
+
+extern volatile FLAG st_running;              /* timer running or paused mid-queue */
+extern volatile FLAG st_paused;               /* stopped by a feed hold */
+extern volatile FLAG st_hold;                 /* feed hold requested */
 extern FAST volatile uint8_t st_port;         /* last value written to the port, without step bits */
 extern FAST volatile uint8_t st_level;        /* current ramp level */
-extern FAST volatile uint16_t st_underruns;   /* queue ran dry while motion should continue */
-extern FAST uint8_t st_accel;                 /* acceleration multiplier: steps per level x this */
-extern FAST uint8_t st_shape;                 /* RAMP_TRAPEZOID or RAMP_EXPONENTIAL */
+extern IDATA volatile uint16_t st_underruns;  /* queue ran dry while motion should continue */
 
 void stepper_init(void);
 void stepper_start(void);     /* begin consuming the queue (call when idle) */

@@ -15,7 +15,7 @@ def main(path, top=25):
             cur = (int(m.group(2)), m.group(3)[:80])
             sizes.setdefault(cur, 0)
             continue
-        m = re.match(r"\s+[0-9A-F]{6}\s+((?:[0-9A-F]{2}[r ]?)+)\s", line)
+        m = re.match(r"\s+[0-9A-F]{6}\s+((?:[0-9A-F]{2}[rs* ]?)+)\s", line)
         if m and cur:
             sizes[cur] += len(re.findall(r"[0-9A-F]{2}", m.group(1)))
     print(f"{sum(sizes.values())} bytes attributed")

@@ -8,6 +8,7 @@
 #include "../../core/planner.h"
 #include "../../core/serial.h"
 #include "../../core/protocol.h"
+#include "../../core/ramp.h"
 
 uint16_t host_period;
 uint8_t host_timer_on;
@@ -46,11 +47,11 @@ void core_reset(void)
     q_head = q_tail = 0;
     rx_head = rx_tail = rx_flush_to = 0;
     rx_overflow = 0;
-    rt_flags = 0;
-    st_accel = 1;
-    st_shape = 0;
-    default_feed = 2000;
-    pen_delay_ms = 150;
+    rt_status = rt_resume = rt_estop = rt_reset = 0;
+    setting[SET_ACCEL] = 1;
+    setting[SET_SHAPE] = RAMP_TRAPEZOID;
+    setting[SET_FEED] = 2000;
+    setting[SET_PEN] = 150;
     stepper_init();
     protocol_init();
 }
@@ -108,13 +109,24 @@ uint32_t core_seq_log(uint16_t *out, uint32_t cap)
 /* Direct planner access for exhaustive interpolation tests. */
 int core_plan_line(int dx, int dy, unsigned feed, unsigned exit_rate)
 {
-    return planner_line((int16_t)dx, (int16_t)dy, (uint16_t)feed, (uint16_t)exit_rate, 0);
+    plan_arg[0] = (uint16_t)dx;
+    plan_arg[1] = (uint16_t)dy;
+    plan_arg[PLAN_FEED] = (uint16_t)feed;
+    plan_arg[PLAN_EXIT] = (uint16_t)exit_rate;
+    plan_seq = 0;
+    return planner_line();
 }
 
 int core_plan_arc(int dx, int dy, int i, int j, int cw, unsigned feed, unsigned exit_rate)
 {
-    return planner_arc((int16_t)dx, (int16_t)dy, (int16_t)i, (int16_t)j, (uint8_t)cw,
-                       (uint16_t)feed, (uint16_t)exit_rate, 0);
+    plan_arg[0] = (uint16_t)dx;
+    plan_arg[1] = (uint16_t)dy;
+    plan_arg[2] = (uint16_t)i;
+    plan_arg[3] = (uint16_t)j;
+    plan_arg[PLAN_FEED] = (uint16_t)feed;
+    plan_arg[PLAN_EXIT] = (uint16_t)exit_rate;
+    plan_seq = 0;
+    return planner_arc((uint8_t)cw);
 }
 
 /* Run queued motion to the end in simulated time, recording every step.

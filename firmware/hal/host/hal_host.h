@@ -7,9 +7,11 @@
 #include <stdint.h>
 
 #define FAST
+#define ROM
 #define INLINE static inline
 #define XDATA
 #define IDATA
+#define FLAG uint8_t
 #define HAL_PORT_IDLE 0x00
 
 extern uint16_t host_period;      /* cycles until the next step interrupt */
@@ -18,7 +20,8 @@ extern uint8_t host_port;
 void host_segment_started(uint16_t seq);
 
 #define STEPPER_ISR void stepper_isr(void)
-#define HAL_TIMER_ADVANCE(p) (host_period = (p))
+#define HAL_PERIOD(p) ((uint16_t)(p))
+#define HAL_TIMER_ADVANCE(r) (host_period = (r))
 #define HAL_TIMER_START(p) (host_period = (p), host_timer_on = 1)
 #define HAL_TIMER_HALT() (host_timer_on = 0)
 #define HAL_PORT_OUT(v) (host_port = (uint8_t)(v))

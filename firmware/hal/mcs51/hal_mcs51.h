@@ -8,33 +8,54 @@
 #include <stdint.h>
 
 #define FAST __data
+#define ROM __code
 /* C99 inline without extern: SDCC expands it and emits no unused copy. */
 #define INLINE inline
 #define XDATA __xdata
 #define IDATA __idata
+/* Flags live in the bit-addressable RAM: setb/clr/jb are one instruction each. */
+#define FLAG __bit
+
+/* hal_putc saves the registers it uses, so callers keep their values in
+ * registers across the (many) calls instead of spilling them to RAM. */
+#pragma callee_saves hal_putc
 
 /* P1.5-P1.7 are inputs (limit switches, spare): keep them written high. */
 #define HAL_PORT_IDLE 0xE0
 
-/* Cycles lost between the overflow and the reload while the timer is stopped:
- * the reload adds them back so the step period is exact. */
-#define TIMER_STOPPED_CYCLES 7
+/* Timer 0 as one 16-bit register (TH0:TL0). */
+__sfr16 __at(0x8C8A) TMR0;
+
+/* Machine cycles the timer misses while HAL_TIMER_ADVANCE has it stopped
+ * (from `clr TR0` to `setb TR0`, measured in s51: tools/bench.py checks that
+ * the pulses come exactly one period apart). */
+#define TIMER_STOPPED_CYCLES 9
+
+/* A step period as HAL_TIMER_ADVANCE takes it: the value that, added to the
+ * timer a few cycles after its overflow, makes it overflow again p cycles
+ * after that overflow.  Tables and the planner store periods in this form so
+ * that the interrupt only adds. */
+#define HAL_PERIOD(p) ((uint16_t)(TIMER_STOPPED_CYCLES - (uint16_t)(p)))
 
 #define STEPPER_ISR void stepper_isr(void) __interrupt(1) __using(1)
 
-#define HAL_TIMER_ADVANCE(p) do {                                            \
-        uint16_t t_;                                                         \
+/* Schedule the next interrupt r = HAL_PERIOD(p) after the overflow that
+ * raised this one.  If this interrupt started so late that the moment has
+ * passed, the addition wraps to a small count (a valid schedule leaves at
+ * least 65536 - 61440 cycles to go, TH0 >= 0x10): fire again at once instead
+ * of a whole timer turn later. */
+#define HAL_TIMER_ADVANCE(r) do {                                            \
         TR0 = 0;                                                             \
-        t_ = (((uint16_t)TH0 << 8) | TL0) - (uint16_t)(p) + TIMER_STOPPED_CYCLES; \
-        TL0 = (uint8_t)t_;                                                   \
-        TH0 = (uint8_t)(t_ >> 8);                                            \
+        TMR0 += (r);                                                         \
+        if (!(TH0 & 0xF0)) {                                                 \
+            TH0 = 0xFF;                                                      \
+            TL0 = 0xFF;                                                      \
+        }                                                                    \
         TR0 = 1;                                                             \
     } while (0)
 #define HAL_TIMER_START(p) do {                                              \
-        uint16_t t_ = (uint16_t)(0 - (uint16_t)(p));                         \
         TR0 = 0;                                                             \
-        TL0 = (uint8_t)t_;                                                   \
-        TH0 = (uint8_t)(t_ >> 8);                                            \
+        TMR0 = (uint16_t)(0 - (uint16_t)(p));                                \
         TF0 = 0;                                                             \
         TR0 = 1;                                                             \
     } while (0)

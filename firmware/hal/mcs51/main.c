@@ -10,7 +10,9 @@ static __xdata uint8_t tx_buf[TX_SIZE];
 static __data volatile uint8_t tx_head, tx_tail;
 static volatile __bit tx_busy;
 
-void uart_isr(void) __interrupt(4) __using(2)
+/* No register bank of its own: it calls nothing, so SDCC saves just the few
+ * registers it uses, and bank 2's 8 bytes stay free for data. */
+void uart_isr(void) __interrupt(4)
 {
     uint8_t c;
     if (RI) {
