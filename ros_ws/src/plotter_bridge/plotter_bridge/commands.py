@@ -9,7 +9,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
-from typing import Iterable, List, Optional
+from typing import Iterable, List, Optional, Tuple
 
 from .gcode_steps import StepItem, StepMove
 from .gcode_types import Dwell, Pause, PenChange
@@ -17,13 +17,34 @@ from .gcode_types import Dwell, Pause, PenChange
 MAX_DELTA = 32767          # the firmware's coordinate range per command
 MIN_RATE = 15              # steps/s: the firmware's slowest feed
 MAX_RATE = 12850           # steps/s: the top of the firmware's ramp table ($I field T)
+FIRMWARE_ACCEL = 100000    # steps/s^2: the firmware's ramp at divisor $0=1 ($I field A)
 
 
-@dataclass(frozen=True)
+Vec = Tuple[float, float]
+
+
+@dataclass
 class BoardCommand:
-    text: str              # e.g. "L 400 -300 2000 0"
-    line: int              # G-code line it came from (0: none)
-    steps: int = 0         # steps it makes the board take
+    verb: str                      # L, C, A (motion), P (pen), D (dwell)
+    args: Tuple[int, ...]          # dx dy [i j] for motion, the value for P and D
+    line: int                      # G-code line it came from (0: none)
+    steps: int = 0                 # steps the board takes for it
+    rate: int = 0                  # cruise rate, steps/s (motion)
+    exit_rate: int = 0             # rate to leave it at, steps/s (set by the planner)
+    dir_in: Optional[Vec] = None   # unit direction of travel where it starts (motion)
+    dir_out: Optional[Vec] = None  # ... and where it ends
+
+    @property
+    def is_motion(self) -> bool:
+        return self.verb in ("L", "C", "A")
+
+    @property
+    def text(self) -> str:
+        """The command on the wire (PROTOCOL.md), without sequence number and checksum."""
+        parts = [self.verb, *map(str, self.args)]
+        if self.is_motion:
+            parts += [str(self.rate), str(self.exit_rate)]
+        return " ".join(parts)
 
 
 def _rate(feed_mm_min: float, steps: int, length_mm: float) -> int:
@@ -61,6 +82,16 @@ def arc_steps(i: int, j: int, dx: int, dy: int, cw: bool) -> tuple:
     return round(total * r), r * sweep
 
 
+def _unit(x: float, y: float) -> Vec:
+    r = math.hypot(x, y)
+    return (x / r, y / r) if r else (0.0, 0.0)
+
+
+def _tangent(x: float, y: float, cw: bool) -> Vec:
+    """Direction of travel on a circle at (x, y) from its centre."""
+    return _unit(y, -x) if cw else _unit(-y, x)
+
+
 def _split_line(dx: int, dy: int) -> List[tuple]:
     pieces = max(1, math.ceil(max(abs(dx), abs(dy)) / MAX_DELTA))
     out, px, py = [], 0, 0
@@ -80,7 +111,7 @@ def to_commands(items: Iterable[StepItem], steps_per_mm: float,
     def set_pen(want: str, line: int) -> None:
         nonlocal pen
         if want != pen:
-            out.append(BoardCommand("P 1" if want == "down" else "P 0", line))
+            out.append(BoardCommand("P", (1 if want == "down" else 0,), line))
             pen = want
 
     for item in items:
@@ -89,7 +120,7 @@ def to_commands(items: Iterable[StepItem], steps_per_mm: float,
         elif isinstance(item, Dwell):
             ms = int(round(item.seconds * 1000))
             while ms > 0:
-                out.append(BoardCommand(f"D {min(ms, 65535)}", item.line))
+                out.append(BoardCommand("D", (min(ms, 65535),), item.line))
                 ms -= 65535
         elif isinstance(item, Pause):
             continue
@@ -99,14 +130,16 @@ def to_commands(items: Iterable[StepItem], steps_per_mm: float,
             if item.kind == "arc":
                 n, length = arc_steps(item.i, item.j, item.dx, item.dy, item.cw)
                 rate = _rate(feed, n, length / steps_per_mm)
-                letter = "C" if item.cw else "A"
-                out.append(BoardCommand(f"{letter} {item.dx} {item.dy} {item.i} {item.j} {rate} 0",
-                                        item.line, n))
+                out.append(BoardCommand("C" if item.cw else "A", (item.dx, item.dy, item.i, item.j),
+                                        item.line, n, rate,
+                                        dir_in=_tangent(-item.i, -item.j, item.cw),
+                                        dir_out=_tangent(item.dx - item.i, item.dy - item.j, item.cw)))
             else:
                 if item.dx == 0 and item.dy == 0:
                     continue
                 for dx, dy in _split_line(item.dx, item.dy):
                     n = abs(dx) + abs(dy)
                     rate = _rate(feed, n, math.hypot(dx, dy) / steps_per_mm)
-                    out.append(BoardCommand(f"L {dx} {dy} {rate} 0", item.line, n))
+                    u = _unit(dx, dy)
+                    out.append(BoardCommand("L", (dx, dy), item.line, n, rate, dir_in=u, dir_out=u))
     return out

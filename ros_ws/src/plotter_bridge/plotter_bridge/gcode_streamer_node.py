@@ -43,6 +43,9 @@ class GCodeStreamer(Node):
         self.declare_parameter("x_max", 200.0, d(description="work area, mm"))
         self.declare_parameter("y_min", 0.0, d(description="work area, mm"))
         self.declare_parameter("y_max", 200.0, d(description="work area, mm"))
+        self.declare_parameter("acceleration", 1000.0, d(description="maximum acceleration, mm/s^2 (within the firmware's ramp)"))
+        self.declare_parameter("junction_deviation", 0.05, d(description="corner rule of the look-ahead planner, mm"))
+        self.declare_parameter("lookahead", True, d(description="plan speeds across commands; false stops at every command"))
         self.config = self._read_config()
         group = ReentrantCallbackGroup()
         self.pub_error = self.create_publisher(String, "program_error", 10)
@@ -65,11 +68,17 @@ class GCodeStreamer(Node):
 
     def _read_config(self) -> StreamerConfig:
         g = lambda n: float(self.get_parameter(n).value)  # noqa: E731
-        values = [g(n) for n in ("steps_per_mm", "rapid_feed", "x_min", "x_max", "y_min", "y_max")]
-        if not all(math.isfinite(v) for v in values) or values[0] <= 0 or values[1] <= 0 \
-                or values[2] >= values[3] or values[4] >= values[5]:
-            raise ValueError(f"bad gcode_streamer parameters: {values}")
-        return StreamerConfig(values[0], values[1], WorkArea(values[2], values[3], values[4], values[5]))
+        names = ("steps_per_mm", "rapid_feed", "x_min", "x_max", "y_min", "y_max",
+                 "acceleration", "junction_deviation")
+        v = dict(zip(names, (g(n) for n in names)))
+        if not all(math.isfinite(x) for x in v.values()) or v["steps_per_mm"] <= 0 or v["rapid_feed"] <= 0 \
+                or v["x_min"] >= v["x_max"] or v["y_min"] >= v["y_max"] or v["acceleration"] <= 0 \
+                or v["junction_deviation"] < 0:
+            raise ValueError(f"bad gcode_streamer parameters: {v}")
+        return StreamerConfig(v["steps_per_mm"], v["rapid_feed"],
+                              WorkArea(v["x_min"], v["x_max"], v["y_min"], v["y_max"]),
+                              v["acceleration"], v["junction_deviation"],
+                              bool(self.get_parameter("lookahead").value))
 
     def _on_state(self, msg: BoardState) -> None:
         with self._board_changed:
@@ -178,7 +187,7 @@ def main(args=None) -> None:
     node = None
     try:
         node = GCodeStreamer()
-        executor = MultiThreadedExecutor()
+        executor = MultiThreadedExecutor(num_threads=4)  # action callbacks wait: keep threads free
         executor.add_node(node)
         executor.spin()
     except (KeyboardInterrupt, ExternalShutdownException):

@@ -65,7 +65,9 @@ class LocalGraph:
         self.client_node = rclpy.create_node("plotter_cli", namespace=options.namespace,
                                              context=self._context)
         self._client = ActionClient(self.client_node, RunProgram, "run_program")
-        self._executor = MultiThreadedExecutor(context=self._context)
+        # Both action callbacks (bridge and streamer) wait for the board: spare threads keep
+        # goal responses, feedback and topics flowing meanwhile.
+        self._executor = MultiThreadedExecutor(num_threads=8, context=self._context)
         for node in (self.bridge, self.streamer, self.client_node):
             self._executor.add_node(node)
         self._spin = threading.Thread(target=self._executor.spin, daemon=True)

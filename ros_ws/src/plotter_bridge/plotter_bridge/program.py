@@ -8,11 +8,12 @@ from __future__ import annotations
 from dataclasses import dataclass
 from typing import List, Tuple
 
-from .commands import BoardCommand, to_commands
+from .commands import FIRMWARE_ACCEL, BoardCommand, to_commands
 from .gcode import load_program
 from .gcode_limits import WorkArea, check_limits
 from .gcode_steps import to_steps
 from .gcode_types import GCodeError
+from .planner import PlannerLimits, plan
 
 MAX_PROGRAM_BYTES = 4 * 1024 * 1024
 
@@ -22,6 +23,14 @@ class StreamerConfig:
     steps_per_mm: float = 80.0
     rapid_feed: float = 6000.0
     area: WorkArea = WorkArea()
+    acceleration: float = 1000.0       # mm/s^2
+    junction_deviation: float = 0.05   # mm
+    lookahead: bool = True             # False: stop at the end of every command
+
+    def limits(self) -> PlannerLimits:
+        """Planner limits in the board's units, inside what its ramp can do."""
+        return PlannerLimits(min(self.acceleration * self.steps_per_mm, 0.8 * FIRMWARE_ACCEL),
+                             self.junction_deviation * self.steps_per_mm)
 
 
 def compile_program(text: str, config: StreamerConfig,
@@ -34,4 +43,5 @@ def compile_program(text: str, config: StreamerConfig,
     start = (start_steps[0] / config.steps_per_mm, start_steps[1] / config.steps_per_mm)
     items = load_program(data, rapid_rate=config.rapid_feed, start=start)
     check_limits(items, config.area)
-    return to_commands(to_steps(items, config.steps_per_mm), config.steps_per_mm, config.rapid_feed)
+    commands = to_commands(to_steps(items, config.steps_per_mm), config.steps_per_mm, config.rapid_feed)
+    return plan(commands, config.limits()) if config.lookahead else commands

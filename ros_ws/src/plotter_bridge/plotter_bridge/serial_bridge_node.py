@@ -390,7 +390,7 @@ def main(args=None) -> None:
     node = None
     try:
         node = SerialBridge()
-        executor = MultiThreadedExecutor()
+        executor = MultiThreadedExecutor(num_threads=4)  # action callbacks wait: keep threads free
         executor.add_node(node)
         executor.spin()
     except (KeyboardInterrupt, ExternalShutdownException):

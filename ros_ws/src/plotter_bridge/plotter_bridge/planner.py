@@ -1,0 +1,68 @@
+"""Look-ahead speed planning: the exit rate of every motion command.
+
+The board ramps its step rate at a fixed acceleration and carries the rate
+from one command into the next, so the host only has to say, per command,
+how fast to leave it.  As grbl's planner: each junction gets a speed limit
+from the corner deviation rule (a corner may be taken as fast as a circular
+arc of deviation `junction_deviation` through it would allow at the given
+acceleration); a backward pass makes every command able to brake to what
+follows within its length, a forward pass makes every exit reachable from
+its entry.  Collinear and gently turning commands flow through; sharp
+corners slow down just enough; the pen, dwells and the end stop at rest.
+
+Rates are in steps per second and distances in steps, as on the board.
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import List, Sequence
+
+from .commands import BoardCommand, MIN_RATE
+
+
+@dataclass(frozen=True)
+class PlannerLimits:
+    acceleration: float        # steps/s^2 the board's ramp may use
+    junction_deviation: float  # steps
+
+
+def junction_rate(a: BoardCommand, b: BoardCommand, limits: PlannerLimits) -> float:
+    """Highest rate at which the path may turn from command a into command b."""
+    ux, uy = a.dir_out
+    vx, vy = b.dir_in
+    cos_theta = -(ux * vx + uy * vy)       # theta: angle between the reversed in and the out direction
+    if cos_theta > 0.999999:
+        return 0.0                         # a full reversal
+    if cos_theta < -0.999999:
+        return math.inf                    # straight on
+    sin_half = math.sqrt(0.5 * (1.0 - cos_theta))
+    return math.sqrt(limits.acceleration * limits.junction_deviation * sin_half / (1.0 - sin_half))
+
+
+def plan(commands: Sequence[BoardCommand], limits: PlannerLimits) -> List[BoardCommand]:
+    """Set exit_rate on every motion command (in place) and return the list."""
+    a2 = 2.0 * limits.acceleration
+    chain: List[BoardCommand] = []
+
+    def flush() -> None:
+        n = len(chain)
+        exits = [0.0] * n
+        for i in range(n - 2, -1, -1):           # backward: brake in time for what follows
+            nxt = chain[i + 1]
+            exits[i] = min(junction_rate(chain[i], nxt, limits), chain[i].rate, nxt.rate,
+                           math.sqrt(exits[i + 1] ** 2 + a2 * nxt.steps))
+        entry = 0.0
+        for i, cmd in enumerate(chain):          # forward: only what acceleration can reach
+            exits[i] = min(exits[i], math.sqrt(entry ** 2 + a2 * cmd.steps))
+            cmd.exit_rate = int(exits[i]) if exits[i] >= MIN_RATE else 0
+            entry = exits[i]
+        chain.clear()
+
+    for cmd in commands:
+        if cmd.is_motion:
+            chain.append(cmd)
+        else:
+            flush()                               # pen changes and dwells start and end at rest
+    flush()
+    return list(commands)
