@@ -479,7 +479,7 @@ def test_build_shape_defaults():
 def test_resolve_placement_rule():
     assert resolve_placement("star", 0, 0, 0) == (100.0, 100.0, 40.0)
     assert resolve_placement("star", 0, 0, 0, default_size=25, default_centre=(5, 6)) == (5, 6, 25)
-    assert resolve_placement("star", 0, 0, 30) == (0, 0, 30)
+    assert resolve_placement("star", 0, 0, 30) == (100.0, 100.0, 30)
     assert resolve_placement("star", 10, 0, 0) == (10, 0, 40.0)
     assert resolve_placement("line", 0, 0, 0)[:2] == (0, 0)
     x, y, size = resolve_placement("star", 0, 0, float("nan"))
