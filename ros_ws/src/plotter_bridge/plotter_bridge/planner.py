@@ -47,16 +47,18 @@ def plan(commands: Sequence[BoardCommand], limits: PlannerLimits) -> List[BoardC
 
     def flush() -> None:
         n = len(chain)
-        exits = [0.0] * n
+        # Whole steps/s throughout: the board is sent integers, and the checks
+        # below must hold for exactly what it is sent.
+        exits = [0] * n
         for i in range(n - 2, -1, -1):           # backward: brake in time for what follows
             nxt = chain[i + 1]
-            exits[i] = min(junction_rate(chain[i], nxt, limits), chain[i].rate, nxt.rate,
-                           math.sqrt(exits[i + 1] ** 2 + a2 * nxt.steps))
-        entry = 0.0
+            exits[i] = int(min(junction_rate(chain[i], nxt, limits), chain[i].rate, nxt.rate,
+                               math.sqrt(exits[i + 1] ** 2 + a2 * nxt.steps)))
+        entry = 0
         for i, cmd in enumerate(chain):          # forward: only what acceleration can reach
-            exits[i] = min(exits[i], math.sqrt(entry ** 2 + a2 * cmd.steps))
-            cmd.exit_rate = int(exits[i]) if exits[i] >= MIN_RATE else 0
-            entry = exits[i]
+            exits[i] = min(exits[i], int(math.sqrt(entry ** 2 + a2 * cmd.steps)))
+            cmd.exit_rate = exits[i] if exits[i] >= MIN_RATE else 0
+            entry = cmd.exit_rate
         chain.clear()
 
     for cmd in commands:
