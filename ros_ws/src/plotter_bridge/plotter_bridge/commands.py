@@ -123,7 +123,8 @@ def to_commands(items: Iterable[StepItem], steps_per_mm: float,
                 out.append(BoardCommand("D", (min(ms, 65535),), item.line))
                 ms -= 65535
         elif isinstance(item, Pause):
-            continue
+            # M0: the board has no operator pause; the pen comes to rest here.
+            out.append(BoardCommand("D", (1,), item.line))
         elif isinstance(item, StepMove):
             set_pen("up" if item.rapid else item.pen, item.line)
             feed = rapid_feed if item.rapid else item.feed
