@@ -23,7 +23,7 @@ uint8_t alarm_code;
 
 static IDATA char line[LINE_MAX + 1];
 static FAST uint8_t line_len;
-static FAST uint8_t line_xor;     /* XOR of the bytes before '*' */
+static XDATA uint8_t line_s1, line_s2;  /* checksum of the bytes before '*' (see put_eol) */
 static FAST uint8_t line_star;    /* index of '*' + 1, 0 if none */
 static FLAG line_long;            /* the line overflowed LINE_MAX */
 static FLAG resend_asked;         /* an rs is outstanding: drop later lines quietly */
@@ -39,19 +39,40 @@ static FAST uint8_t nargs;
 #define arg_mag plan_arg
 
 static IDATA uint32_t num;        /* the number put_num prints */
+static XDATA uint8_t tx_s1, tx_s2;  /* checksum of the reply line so far */
+
+/* Every byte of a reply goes through here, summed for the line's checksum. */
+static void out(uint8_t c)
+{
+    tx_s1 += c;
+    tx_s2 += tx_s1;
+    hal_putc(c);
+}
 
 static void put_str(const ROM char *s)
 {
     char c;
     while ((c = *s++) != 0) {
-        hal_putc((uint8_t)c);
+        out((uint8_t)c);
     }
 }
 
+static void put_num(void);
+
+/* End a reply line with " *<checksum>": a Fletcher sum, 256 * s2 + s1 with
+ * s1 += byte, s2 += s1 (mod 256), over the bytes before the '*'.  Unlike an
+ * XOR it notices a dropped or repeated pair of equal bytes and swapped
+ * bytes; the host trusts no reply that fails it. */
 static void put_eol(void)
 {
+    out(' ');
+    num = ((uint16_t)tx_s2 << 8) | tx_s1;
+    hal_putc('*');
+    put_num();
     hal_putc('\r');
     hal_putc('\n');
+    tx_s1 = 0;
+    tx_s2 = 0;
 }
 
 static RAMP_ROM uint32_t powers_of_ten[10] = {
@@ -77,13 +98,13 @@ static void put_num(void)
 {
     uint8_t k, d, started = 0;
     if ((int32_t)num < 0) {
-        hal_putc('-');
+        out('-');
         num = 0 - num;
     }
     for (k = 0; k < 10; k++) {
         d = num_digit(k);
         if (d || started || k == 9) {
-            hal_putc((uint8_t)('0' + d));
+            out((uint8_t)('0' + d));
             started = 1;
         }
     }
@@ -98,20 +119,22 @@ static void put_u16(uint16_t v)
 /* " <tag>", the start of a field */
 static void put_tag(char tag)
 {
-    hal_putc(' ');
-    hal_putc((uint8_t)tag);
+    out(' ');
+    out((uint8_t)tag);
 }
 
 void protocol_init(void)
 {
     line_len = 0;
-    line_xor = 0;
+    line_s1 = 0;
+    line_s2 = 0;
     line_star = 0;
     line_long = 0;
     expected_seq = 0;
     resend_asked = 0;
     alarm_code = 0;
-    put_str(FW_NAME " " FW_VERSION " ready\r\n");
+    put_str(FW_NAME " " FW_VERSION " ready");
+    put_eol();
 }
 
 static void report_status(void)
@@ -123,7 +146,7 @@ static void report_status(void)
     pos[1] = POS_READ(pos_y);
     seq = st_seg.seq;
     HAL_CRITICAL_END();
-    hal_putc('<');
+    out('<');
     put_str(alarm_code ? "Alarm" : st_hold ? "Hold" : st_running ? "Run" : "Idle");
     put_tag('X');
     num = (uint32_t)pos[0];
@@ -143,7 +166,8 @@ static void report_status(void)
     put_u16(st_underruns);
     put_tag('A');
     put_u16(alarm_code);
-    put_str(">\r\n");
+    out('>');
+    put_eol();
 }
 
 void protocol_alarm(uint8_t code)
@@ -153,7 +177,8 @@ void protocol_alarm(uint8_t code)
     planner_flush();
     st_hold = 0;
     alarm_code = code;
-    put_str(code == ALARM_ESTOP ? "[alarm estop]\r\n" : "[alarm limit]\r\n");
+    put_str(code == ALARM_ESTOP ? "[alarm estop]" : "[alarm limit]");
+    put_eol();
 }
 
 static const ROM char *const ROM error_texts[] = {
@@ -273,9 +298,9 @@ static uint8_t cmd_setting(void)
     static IDATA uint8_t key;
     if (cur >= end) {
         for (key = 0; key < SETTINGS; key++) {
-            hal_putc('$');
-            hal_putc((uint8_t)('0' + key));
-            hal_putc('=');
+            out('$');
+            out((uint8_t)('0' + key));
+            out('=');
             put_u16(setting[key]);
             put_eol();
         }
@@ -286,7 +311,8 @@ static uint8_t cmd_setting(void)
         put_u16(ramp_rate[setting[SET_SHAPE]][0]);
         put_tag('T');
         put_u16(ramp_rate[setting[SET_SHAPE]][RAMP_LEVELS - 1]);
-        put_str(" A" XSTR(RAMP_ACCEL_TRAP) "]\r\n");
+        put_str(" A" XSTR(RAMP_ACCEL_TRAP) "]");
+        put_eol();
         return E_OK;
     }
     if (!parse_u16() || *cur != '=') return E_NUMBER;
@@ -361,7 +387,7 @@ static void reply_err(uint8_t code)
     reply_start("err");
     put_tag('E');
     put_u16(code);
-    hal_putc(' ');
+    out(' ');
     put_str(error_texts[code - 1]);
     put_eol();
 }
@@ -402,7 +428,7 @@ static void execute_line(void)
     }
     end = line + (uint8_t)(line_star - 1);
     cur = line + line_star;
-    if (!parse_u16() || *cur != 0 || arg_mag[0] != line_xor) {
+    if (!parse_u16() || *cur != 0 || arg_mag[0] != (((uint16_t)line_s2 << 8) | line_s1)) {
         reply_resend(E_CHECKSUM);
         return;
     }
@@ -438,7 +464,8 @@ static void receive_byte(uint8_t c)
             execute_line();
         }
         line_len = 0;
-        line_xor = 0;
+        line_s1 = 0;
+        line_s2 = 0;
         line_star = 0;
         line_long = 0;
         return;
@@ -450,7 +477,8 @@ static void receive_byte(uint8_t c)
     if (c == '*' && !line_star) {
         line_star = (uint8_t)(line_len + 1);
     } else if (!line_star) {
-        line_xor ^= c;
+        line_s1 += c;
+        line_s2 += line_s1;
     }
     line[line_len++] = (char)c;
 }
@@ -462,7 +490,8 @@ void protocol_poll(void)
         HAL_TIMER_HALT();
         rx_tail = rx_flush_to;
         line_len = 0;
-        line_xor = 0;
+        line_s1 = 0;
+        line_s2 = 0;
         line_star = 0;
         line_long = 0;
         if (rt_estop) {
@@ -473,7 +502,8 @@ void protocol_poll(void)
             planner_flush();
             st_hold = 0;
             alarm_code = 0;
-            put_str("[reset]\r\n");
+            put_str("[reset]");
+            put_eol();
         }
     }
     if (rt_resume) {

@@ -3,7 +3,13 @@
  * SERIAL_RX_BYTE(c) is the whole receive path of the UART interrupt: it acts
  * on a real-time byte at once (an emergency stop halts the step timer before
  * the interrupt returns) and queues every other byte for the main loop.  It is
- * a macro so the 8051's interrupt needs no function call. */
+ * a macro so the 8051's interrupt needs no function call.
+ *
+ * One flipped bit turns a line's '8' into Ctrl-X and its '1' into '!'.  So
+ * reset, hold and resume act only between lines (after a line end, another
+ * real-time byte, or at power-on); inside a line they are dropped, and the
+ * damaged line fails its checksum.  ESC is two bit flips away from every byte
+ * a host sends in a line, and the status query is harmless: both act anywhere. */
 #ifndef SERIAL_H
 #define SERIAL_H
 
@@ -15,25 +21,37 @@ extern XDATA uint8_t rx_buf[RX_SIZE];
 extern FAST volatile uint8_t rx_head, rx_tail;
 extern FAST volatile uint8_t rx_flush_to;   /* on reset/e-stop: drop input received before it */
 extern volatile FLAG rx_overflow;           /* bytes were lost to a full ring */
+extern volatile FLAG rx_between_lines;      /* no line has started since the last line end */
 /* Real-time requests for the main loop. */
 extern volatile FLAG rt_status, rt_resume, rt_estop, rt_reset;
 
 #define SERIAL_RX_BYTE(c) do {                                              \
     if ((c) == RT_STATUS) {                                                 \
         rt_status = 1;                                                      \
-    } else if ((c) == RT_HOLD) {                                            \
-        st_hold = 1;                                                        \
-    } else if ((c) == RT_RESUME) {                                          \
-        rt_resume = 1;                                                      \
-    } else if ((c) == RT_ESTOP || (c) == RT_RESET) {                        \
+    } else if ((c) == RT_ESTOP) {                                           \
         HAL_TIMER_HALT();                                                   \
         rx_flush_to = rx_head;                                              \
-        if ((c) == RT_ESTOP) rt_estop = 1; else rt_reset = 1;               \
+        rt_estop = 1;                                                       \
+        rx_between_lines = 1;                                               \
+    } else if ((c) == RT_RESET || (c) == RT_HOLD || (c) == RT_RESUME) {     \
+        if (rx_between_lines) {                                             \
+            if ((c) == RT_HOLD) {                                           \
+                st_hold = 1;                                                \
+            } else if ((c) == RT_RESUME) {                                  \
+                rt_resume = 1;                                              \
+            } else {                                                        \
+                HAL_TIMER_HALT();                                           \
+                rx_flush_to = rx_head;                                      \
+                rt_reset = 1;                                               \
+            }                                                               \
+        }                                                                   \
     } else if ((uint8_t)(rx_head - rx_tail) < RX_SIZE) {                    \
         rx_buf[rx_head & (RX_SIZE - 1)] = (c);                              \
         rx_head++;                                                          \
+        rx_between_lines = ((c) == '\n' || (c) == '\r');                    \
     } else {                                                                \
         rx_overflow = 1;                                                    \
+        rx_between_lines = 0;                                               \
     }                                                                       \
 } while (0)
 

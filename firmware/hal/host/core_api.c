@@ -47,6 +47,7 @@ void core_reset(void)
     q_head = q_tail = 0;
     rx_head = rx_tail = rx_flush_to = 0;
     rx_overflow = 0;
+    rx_between_lines = 1;
     rt_status = rt_resume = rt_estop = rt_reset = 0;
     setting[SET_ACCEL] = 1;
     setting[SET_SHAPE] = RAMP_TRAPEZOID;

@@ -26,15 +26,17 @@ ERROR_TEXT = {
 
 
 def checksum(text: str) -> int:
-    """XOR of the bytes of text."""
-    value = 0
-    for b in text.encode("ascii"):
-        value ^= b
-    return value
+    """Fletcher sum of text, as the firmware computes it: s1 += byte,
+    s2 += s1 (both mod 256); the checksum is 256 * s2 + s1."""
+    s1 = s2 = 0
+    for b in text.encode("ascii", "replace"):
+        s1 = (s1 + b) & 0xFF
+        s2 = (s2 + s1) & 0xFF
+    return (s2 << 8) | s1
 
 
 def machine_line(seq: int, command: str) -> bytes:
-    """`N<seq> <command> *<xor>\\n` for a command like `L 10 -4`."""
+    """`N<seq> <command> *<checksum>\\n` for a command like `L 10 -4`."""
     body = f"N{seq % SEQ_MOD} {command} "
     return f"{body}*{checksum(body)}\n".encode("ascii")
 
@@ -91,10 +93,22 @@ _STATUS = re.compile(
     r"<(Idle|Run|Hold|Alarm) X(-?\d+) Y(-?\d+) Q(\d+) N(\d+) S(\d+) P([01]) U(\d+) A(\d+)>$")
 
 
-def parse_reply(line: str) -> Optional[Reply]:
-    """One line from the board, without its line ending; None if unrecognised
-    (e.g. damaged on the wire: the caller ignores it and relies on time-outs)."""
-    line = line.strip()
+def verify_reply(line: str) -> Optional[str]:
+    """The text of a reply line whose ` *<checksum>` matches, else None."""
+    line = line.rstrip("\r\n")
+    body, star, tail = line.rpartition("*")
+    if not star or not tail.isdigit() or len(tail) > 5 or checksum(body) != int(tail):
+        return None
+    return body.rstrip(" ")
+
+
+def parse_reply(raw: str) -> Optional[Reply]:
+    """One line from the board, without its line ending; None if damaged (the
+    checksum fails) or unrecognised: the caller ignores it and relies on
+    time-outs and later replies."""
+    line = verify_reply(raw)
+    if line is None:
+        return None
     m = _OK.match(line)
     if m:
         return Ok(int(m.group(1)) if m.group(1) else None, int(m.group(2)))
