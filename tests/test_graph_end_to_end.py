@@ -9,6 +9,8 @@ import random
 import threading
 import time
 
+from pathlib import Path
+
 import pytest
 
 from ros_graph import PlotterGraph, Probe, distance_to_segment, read_trace, wait_until
@@ -16,6 +18,7 @@ from ros_graph import PlotterGraph, Probe, distance_to_segment, read_trace, wait
 pytestmark = pytest.mark.ros
 
 STEPS_PER_MM = 80.0
+REPO = Path(__file__).resolve().parent.parent
 
 
 @pytest.fixture(scope="module")
@@ -173,3 +176,70 @@ def test_cancel_stops_the_board_and_nothing_moves_after(graph):
     n = len(read_trace(graph.trace))
     time.sleep(1.0)
     assert len(read_trace(graph.trace)) == n, "the board kept moving after the cancel"
+
+
+def call(graph, name):
+    from std_srvs.srv import Trigger
+    client = graph.probe.node.create_client(Trigger, name)
+    assert client.wait_for_service(timeout_sec=20), name
+    future = client.call_async(Trigger.Request())
+    wait_until(future.done, 20, f"the {name} service")
+    graph.probe.node.destroy_client(client)
+    return future.result()
+
+
+def test_hold_resume_estop_reset_and_set_origin_services(graph):
+    from plotter_interfaces.msg import BoardState
+    from rclpy.action import ActionClient
+    from plotter_interfaces.action import RunProgram
+
+    def latest():
+        with graph.lock:
+            return graph.states[-1]
+
+    slow = "G21 G90\nM3\n" + "".join(f"G1 X{150 if k % 2 == 0 else 40} Y{60 + k} F900\n" for k in range(20)) + "M2\n"
+    client = ActionClient(graph.probe.node, RunProgram, "run_program")
+    assert client.wait_for_server(timeout_sec=30)
+    send = client.send_goal_async(RunProgram.Goal(program=slow, name="services"))
+    wait_until(send.done, 30, "goal acceptance")
+    result = send.result().get_result_async()
+    wait_until(lambda: latest()[1] == BoardState.RUNNING, 30, "RUNNING")
+
+    assert call(graph, "hold").success
+    wait_until(lambda: latest()[1] == BoardState.HOLD, 10, "HOLD")
+    time.sleep(0.5)
+    held = len(read_trace(graph.trace))
+    time.sleep(0.5)
+    assert len(read_trace(graph.trace)) == held, "moved while held"
+    assert call(graph, "resume").success
+    wait_until(lambda: latest()[1] == BoardState.RUNNING, 10, "RUNNING after resume")
+
+    assert call(graph, "estop").success
+    wait_until(result.done, 30, "the program to end on the emergency stop")
+    assert not result.result().result.success
+    wait_until(lambda: latest()[1] == BoardState.ALARM, 10, "ALARM")
+    stopped = read_trace(graph.trace)
+    time.sleep(1.0)
+    assert read_trace(graph.trace) == stopped, "moved after the emergency stop"
+    refused, _ = run_program(graph, "G21 G90\nG1 X50 Y50 F1000\nM2\n")
+    assert not refused.result.success and "alarm" in refused.result.message
+
+    assert call(graph, "reset").success
+    wait_until(lambda: latest()[1] == BoardState.IDLE, 10, "IDLE after reset")
+    assert call(graph, "set_origin").success
+    wait_until(lambda: latest()[3:] == (0, 0), 10, "position 0,0 after set_origin")
+    graph.origin_moved = stopped[-1][1:]
+    client.destroy()
+
+
+def test_watch_prints_live_positions(graph):
+    import os
+    import subprocess
+    env = dict(os.environ, ROS_DOMAIN_ID=str(graph.domain))
+    watch = subprocess.Popen([str(REPO / ".venv" / "bin" / "plotter"), "watch", "--count", "5", "--timeout", "60"],
+                             stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, env=env)
+    result, _ = run_program(graph, "G21 G90\nG1 X30 Y30 F3000\nG1 X10 Y10\nM2\n")
+    out, err = watch.communicate(timeout=90)
+    assert watch.returncode == 0, err
+    rows = [line for line in out.splitlines() if " X " in line and " Y " in line]
+    assert len(rows) >= 5
