@@ -9,9 +9,9 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
-from typing import Iterable, List, Optional, Tuple
+from typing import Callable, Iterable, List, Optional, Tuple
 
-from .gcode_steps import StepItem, StepMove
+from .gcode_steps import StepMove
 from .gcode_types import Dwell, Pause, PenChange
 
 MAX_DELTA = 32767          # the firmware's coordinate range per command
@@ -102,9 +102,40 @@ def _split_line(dx: int, dy: int) -> List[tuple]:
     return out
 
 
-def to_commands(items: Iterable[StepItem], steps_per_mm: float,
+MotionConverter = Callable[[object, float], List["BoardCommand"]]
+
+
+def cartesian_motion(steps_per_mm: float) -> MotionConverter:
+    """Board commands for one StepMove of a cartesian machine: lines (split
+    beyond the board's 16-bit range) and native arcs."""
+    def convert(item: StepMove, feed: float) -> List[BoardCommand]:
+        if item.kind == "arc":
+            n, length = arc_steps(item.i, item.j, item.dx, item.dy, item.cw)
+            rate = _rate(feed, n, length / steps_per_mm)
+            return [BoardCommand("C" if item.cw else "A", (item.dx, item.dy, item.i, item.j),
+                                 item.line, n, rate,
+                                 dir_in=_tangent(-item.i, -item.j, item.cw),
+                                 dir_out=_tangent(item.dx - item.i, item.dy - item.j, item.cw))]
+        out = []
+        if item.dx == 0 and item.dy == 0:
+            return out
+        for dx, dy in _split_line(item.dx, item.dy):
+            out.append(straight(dx, dy, item.line, feed, math.hypot(dx, dy) / steps_per_mm))
+        return out
+    return convert
+
+
+def straight(dx: int, dy: int, line: int, feed_mm_min: float, length_mm: float) -> BoardCommand:
+    """A board line of (dx, dy) steps that should take length_mm / feed to draw."""
+    n = abs(dx) + abs(dy)
+    u = _unit(dx, dy)
+    return BoardCommand("L", (dx, dy), line, n, _rate(feed_mm_min, n, length_mm), dir_in=u, dir_out=u)
+
+
+def to_commands(items: Iterable[object], motion: MotionConverter,
                 rapid_feed: float = 6000.0) -> List[BoardCommand]:
-    """Board commands for a program converted to steps; pen changes only when needed."""
+    """Board commands for a program's items; `motion` turns each move into
+    board motion for the machine; pen changes only when needed."""
     out: List[BoardCommand] = []
     pen: Optional[str] = None
 
@@ -125,22 +156,7 @@ def to_commands(items: Iterable[StepItem], steps_per_mm: float,
         elif isinstance(item, Pause):
             # M0: the board has no operator pause; the pen comes to rest here.
             out.append(BoardCommand("D", (1,), item.line))
-        elif isinstance(item, StepMove):
+        else:
             set_pen("up" if item.rapid else item.pen, item.line)
-            feed = rapid_feed if item.rapid else item.feed
-            if item.kind == "arc":
-                n, length = arc_steps(item.i, item.j, item.dx, item.dy, item.cw)
-                rate = _rate(feed, n, length / steps_per_mm)
-                out.append(BoardCommand("C" if item.cw else "A", (item.dx, item.dy, item.i, item.j),
-                                        item.line, n, rate,
-                                        dir_in=_tangent(-item.i, -item.j, item.cw),
-                                        dir_out=_tangent(item.dx - item.i, item.dy - item.j, item.cw)))
-            else:
-                if item.dx == 0 and item.dy == 0:
-                    continue
-                for dx, dy in _split_line(item.dx, item.dy):
-                    n = abs(dx) + abs(dy)
-                    rate = _rate(feed, n, math.hypot(dx, dy) / steps_per_mm)
-                    u = _unit(dx, dy)
-                    out.append(BoardCommand("L", (dx, dy), item.line, n, rate, dir_in=u, dir_out=u))
+            out.extend(motion(item, rapid_feed if item.rapid else item.feed))
     return out

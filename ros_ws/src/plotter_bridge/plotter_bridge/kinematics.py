@@ -113,3 +113,41 @@ def arc_path(p0: Point, p1: Point, centre: Point, cw: bool) -> Callable[[float],
     sign = -1.0 if cw else 1.0
     return lambda t: (centre[0] + r * math.cos(a0 + sign * sweep * t),
                       centre[1] + r * math.sin(a0 + sign * sweep * t))
+
+
+def hanging_motion(geometry: HangingGeometry, tolerance: float):
+    """A motion converter (commands.to_commands) for the hanging machine:
+    each programmed move (gcode_types.Move, mm) becomes straight board lines
+    between motor positions rounded once, absolutely, so errors never add up."""
+    from .commands import MAX_DELTA, straight
+
+    here = {"motor": None}
+
+    def convert(move, feed: float):
+        start = (move.sx, move.sy)
+        end = (move.x, move.y)
+        if move.kind == "arc":
+            path = arc_path(start, end, (move.cx, move.cy), bool(move.cw))
+        else:
+            path = line_path(start, end)
+        if here["motor"] is None:
+            here["motor"] = tuple(round(v) for v in geometry.inverse(start))
+        cuts = motor_pieces(path, geometry, tolerance)
+        out = []
+        prev_pen = start
+        for t in cuts[1:]:
+            pen = path(t)
+            target = tuple(round(v) for v in geometry.inverse(pen))
+            dx, dy = target[0] - here["motor"][0], target[1] - here["motor"][1]
+            length = math.hypot(pen[0] - prev_pen[0], pen[1] - prev_pen[1])
+            pieces = max(1, math.ceil(max(abs(dx), abs(dy)) / MAX_DELTA))
+            for k in range(pieces):
+                px = round(dx * (k + 1) / pieces) - round(dx * k / pieces)
+                py = round(dy * (k + 1) / pieces) - round(dy * k / pieces)
+                if px or py:
+                    out.append(straight(px, py, move.line, feed, length / pieces))
+            here["motor"] = target
+            prev_pen = pen
+        return out
+
+    return convert

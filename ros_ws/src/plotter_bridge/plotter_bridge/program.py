@@ -8,11 +8,12 @@ from __future__ import annotations
 from dataclasses import dataclass
 from typing import List, Tuple
 
-from .commands import FIRMWARE_ACCEL, BoardCommand, to_commands
+from .commands import FIRMWARE_ACCEL, BoardCommand, cartesian_motion, to_commands
 from .gcode import load_program
 from .gcode_limits import WorkArea, check_limits
 from .gcode_steps import to_steps
 from .gcode_types import GCodeError
+from .kinematics import HangingGeometry, hanging_motion
 from .planner import PlannerLimits, plan
 
 MAX_PROGRAM_BYTES = 4 * 1024 * 1024
@@ -26,11 +27,17 @@ class StreamerConfig:
     acceleration: float = 1000.0       # mm/s^2
     junction_deviation: float = 0.05   # mm
     lookahead: bool = True             # False: stop at the end of every command
+    machine: str = "cartesian"         # or "hanging" (seed 003's two-string plotter)
+    hanging: HangingGeometry = HangingGeometry()
+    tolerance: float = 0.1             # hanging: largest pen deviation from the path, mm
+
+    def motor_steps_per_mm(self) -> float:
+        return self.hanging.steps_per_mm if self.machine == "hanging" else self.steps_per_mm
 
     def limits(self) -> PlannerLimits:
         """Planner limits in the board's units, inside what its ramp can do."""
-        return PlannerLimits(min(self.acceleration * self.steps_per_mm, 0.8 * FIRMWARE_ACCEL),
-                             self.junction_deviation * self.steps_per_mm)
+        k = self.motor_steps_per_mm()
+        return PlannerLimits(min(self.acceleration * k, 0.8 * FIRMWARE_ACCEL), self.junction_deviation * k)
 
 
 def compile_program(text: str, config: StreamerConfig,
@@ -40,8 +47,15 @@ def compile_program(text: str, config: StreamerConfig,
     data = text.encode("utf-8", "surrogateescape") if isinstance(text, str) else text
     if len(data) > MAX_PROGRAM_BYTES:
         raise GCodeError(0, f"program too large: {len(data)} bytes (limit {MAX_PROGRAM_BYTES})")
-    start = (start_steps[0] / config.steps_per_mm, start_steps[1] / config.steps_per_mm)
+    if config.machine == "hanging":
+        start = config.hanging.forward(start_steps)
+    else:
+        start = (start_steps[0] / config.steps_per_mm, start_steps[1] / config.steps_per_mm)
     items = load_program(data, rapid_rate=config.rapid_feed, start=start)
     check_limits(items, config.area)
-    commands = to_commands(to_steps(items, config.steps_per_mm), config.steps_per_mm, config.rapid_feed)
+    if config.machine == "hanging":
+        commands = to_commands(items, hanging_motion(config.hanging, config.tolerance), config.rapid_feed)
+    else:
+        commands = to_commands(to_steps(items, config.steps_per_mm),
+                               cartesian_motion(config.steps_per_mm), config.rapid_feed)
     return plan(commands, config.limits()) if config.lookahead else commands
