@@ -3,12 +3,15 @@
 Tests drive BoardLink against the real protocol and interpolation code
 without a pty or real-time waits: `advance(dt)` runs the board for dt
 seconds of its own clock (UART bytes at the baud rate, main loop, step
-interrupts).  Optional hooks may damage the bytes in either direction.
+interrupts).  Optional hooks may damage the bytes in either direction, or a
+FaultSpec (plotter_bridge.faults) whose channels count what they did; and
+`unplugged` makes the port vanish for the host while the board runs on.
 """
 from __future__ import annotations
 
 from typing import Callable, Optional
 
+from plotter_bridge.faults import FaultSpec, FaultyChannel
 from plotter_bridge.firmware_core import CYCLES_PER_S, FirmwareCore
 
 Mangle = Callable[[bytes], bytes]
@@ -16,8 +19,13 @@ Mangle = Callable[[bytes], bytes]
 
 class SimPort:
     def __init__(self, core: FirmwareCore, baud: int = 115200,
-                 to_board: Optional[Mangle] = None, from_board: Optional[Mangle] = None) -> None:
+                 to_board: Optional[Mangle] = None, from_board: Optional[Mangle] = None,
+                 faults: Optional[FaultSpec] = None) -> None:
         self.core = core
+        self.faults = faults
+        self.down = FaultyChannel(faults, 0) if faults else None   # host -> board
+        self.up = FaultyChannel(faults, 1) if faults else None     # board -> host
+        self.unplugged = False
         self.baud = baud
         self.now = 0.0
         self._to_board = to_board
@@ -30,12 +38,35 @@ class SimPort:
 
     # pyserial-like
     def write(self, data: bytes) -> int:
-        self._wire += self._to_board(data) if self._to_board else data
+        if self.unplugged:
+            raise OSError(5, "Input/output error")
+        data = self._to_board(data) if self._to_board else data
+        if self.down:
+            self.down.send(data, self.now)
+        else:
+            self._wire += data
         return len(data)
 
     def read(self, n: int) -> bytes:
+        if self.unplugged:
+            raise OSError(5, "Input/output error")
         out, self._out = bytes(self._out[:n]), self._out[n:]
         return out
+
+    def close(self) -> None:
+        pass
+
+    def unplug(self) -> None:
+        """The port vanishes: whatever is on the wire is lost; the board runs on."""
+        self.unplugged = True
+        self._wire.clear()
+        self._out.clear()
+        for channel in (self.down, self.up):
+            if channel:
+                channel.clear()
+
+    def replug(self) -> None:
+        self.unplugged = False
 
     def clock(self) -> float:
         return self.now
@@ -45,6 +76,8 @@ class SimPort:
         end = self.now + dt
         core = self.core
         while True:
+            if self.down:
+                self._wire += self.down.receive(self.now)
             self._rx_credit = min(self._rx_credit + dt * self.baud / 10, 64)
             n = min(int(self._rx_credit), len(self._wire))
             if n:
@@ -65,7 +98,13 @@ class SimPort:
                         self.steps.append((due, x, y))
                     core.poll()
             out = core.transmitted()
-            if out:
-                self._out += self._from_board(out) if self._from_board else out
+            if out and not self.unplugged:
+                out = self._from_board(out) if self._from_board else out
+                if self.up:
+                    self.up.send(out, end)
+                else:
+                    self._out += out
+            if self.up:
+                self._out += self.up.receive(end)
             self.now = end
             return

@@ -7,6 +7,14 @@ lines are sent again from the number the board expects ("go back N"): on an
 `rs`, or when the oldest line stays unacknowledged past a time-out.  The
 board executes each number once, so repeats are harmless.
 
+Every status report is checked against what the link knows: the board's
+next expected number must lie between the last acknowledged line and the
+last line sent.  A board that forgot its numbering (it was reset, perhaps
+while the port was away and its banner lost) fails that check and is
+reported through `on_mismatch` instead of having lines acknowledged or sent
+to it.  After the port comes back, `attach()` holds every line until a
+status report shows where the board is, then goes on from its `N`.
+
 The caller drives it: `poll()` reads what arrived, reacts, and sends what the
 window allows.  It owns no thread and knows nothing of ROS.
 """
@@ -45,6 +53,8 @@ class LinkStats:
     bytes_sent: int = 0
     bytes_received: int = 0
     garbled_replies: int = 0
+    reconnects: int = 0
+    mismatches: int = 0
 
 
 @dataclass
@@ -59,6 +69,7 @@ class BoardLink:
     on_error: Optional[Callable[[Command, Err], None]] = None
     on_banner: Optional[Callable[[str], None]] = None
     on_message: Optional[Callable[[str], None]] = None
+    on_mismatch: Optional[Callable[[Status], None]] = None
     stats: LinkStats = field(default_factory=LinkStats)
 
     def __post_init__(self) -> None:
@@ -72,6 +83,8 @@ class BoardLink:
         self._status_pending = False
         self.status: Optional[Status] = None
         self.acked = -1                           # highest host seq acknowledged
+        self.last_sent = -1                       # highest host seq put on the wire
+        self.paused = False                       # after attach(): wait for a status first
 
     # --- numbering ---------------------------------------------------------
     def sync(self, expected_wire_seq: int, queue_free: int) -> None:
@@ -81,6 +94,8 @@ class BoardLink:
             base += SEQ_MOD
         self._next_seq = base
         self.acked = base - 1
+        self.last_sent = base - 1
+        self.paused = False
         self._window.clear()
         self._send_pos = 0
         self._credit_q = queue_free
@@ -110,6 +125,27 @@ class BoardLink:
         """Forget everything not yet acknowledged (after an abort)."""
         self._window.clear()
         self._send_pos = 0
+
+    def attach(self, port: Port) -> None:
+        """Go on over a new port (the old one vanished): nothing is sent until
+        a status report shows that the board still counts where it did."""
+        self.port = port
+        self.stats.reconnects += 1
+        self._inbuf = b""
+        self._send_pos = 0
+        self.paused = True
+        self.port.write(b"\n")          # ends whatever part-line the board holds
+        self.request_status()
+
+    def consistent(self, st: Status) -> bool:
+        """The board's next expected number is one the link can explain:
+        after everything acknowledged, at most one past the last line sent."""
+        nxt = self._host_seq(st.next_seq)
+        return self.acked + 1 <= nxt <= self.last_sent + 1
+
+    def expected(self, st: Status) -> int:
+        """The host number of the board's next expected line."""
+        return self._host_seq(st.next_seq)
 
     def realtime(self, byte: bytes) -> None:
         self.port.write(byte)
@@ -148,6 +184,8 @@ class BoardLink:
         return sum(len(c.data) for c in islice(self._window, self._send_pos))
 
     def _transmit(self, now: float) -> None:
+        if self.paused:
+            return
         budget = self.rx_buffer - self._in_flight_bytes()
         credit = self._credit()
         while self._send_pos < len(self._window) and credit > 0:
@@ -159,13 +197,14 @@ class BoardLink:
             self.port.write(cmd.data)
             self.stats.bytes_sent += len(cmd.data)
             self.stats.lines_sent += 1
+            self.last_sent = max(self.last_sent, cmd.seq)
             cmd.sent_at = now
             budget -= len(cmd.data)
             credit -= 1
             self._send_pos += 1
 
     def _check_timeout(self, now: float) -> None:
-        if self._send_pos == 0:
+        if self._send_pos == 0 or self.paused:
             return
         oldest = self._window[0]
         if oldest.sent_at is not None and now - oldest.sent_at > self.ack_timeout:
@@ -175,9 +214,7 @@ class BoardLink:
 
     def _was_sent(self, seq: int) -> bool:
         """Host seq at or below the last line put on the wire."""
-        if self._send_pos == 0:
-            return seq <= self.acked
-        return seq <= self._window[self._send_pos - 1].seq
+        return seq <= self.last_sent
 
     def _acknowledge_through(self, seq: int) -> None:
         while self._window and self._window[0].seq <= seq:
@@ -206,6 +243,9 @@ class BoardLink:
         elif isinstance(reply, Resend):
             self.stats.resend_requests += 1
             expected = self._host_seq(reply.expected)
+            if expected > self.last_sent + 1:
+                self.stats.garbled_replies += 1     # asks for what was never sent
+                return
             self._acknowledge_through(expected - 1)
             self._send_pos = 0
         elif isinstance(reply, Err):
@@ -221,7 +261,14 @@ class BoardLink:
                     self.on_error(cmd, reply)
         elif isinstance(reply, Status):
             self._status_pending = False
+            if not self.consistent(reply):
+                self.stats.mismatches += 1
+                if self.on_mismatch:
+                    self.on_mismatch(reply)     # the caller decides: sync() or give up
+                if not self.consistent(reply):
+                    return
             self.status = reply
+            self.paused = False
             nxt = self._host_seq(reply.next_seq)
             self._acknowledge_through(nxt - 1)
             if nxt >= self._credit_from:

@@ -1,0 +1,526 @@
+"""The serial bridge's side of one board, without ROS.
+
+BoardSession owns the port and the BoardLink, and decides what happens when
+things go wrong:
+
+- The port vanishes: the state is DISCONNECTED, the job is kept, and the
+  port is opened again (same path) with growing back-off.  When it answers,
+  the link holds every line until a status report shows where the board is.
+  If the board still counts where it did, the job goes on from the board's
+  `N`: what it had queued ran once, what it lost is sent again.  If the port
+  stays away longer than `reconnect_timeout`, the job is aborted.
+- The board was reset (its start-up banner, or a status whose numbering the
+  link cannot explain): the position is unknown until the origin is set
+  again, and a running job is aborted, since a relative move cut short
+  cannot be finished from an unknown place.
+- Emergency stop, hold, resume and reset are real-time bytes that noise may
+  destroy, or a half-received line may swallow: each is sent again until a
+  status report shows it took effect.
+- A job whose lease runs out (its client stopped renewing it) stops at a
+  command boundary: nothing more is sent, the board finishes what it has
+  acknowledged, and the job ends with the exact number of commands done.
+
+The caller runs `pump()` in a loop on one thread; everything else may be
+called from other threads.  Waits happen outside the lock.
+"""
+from __future__ import annotations
+
+import threading
+import time
+from dataclasses import dataclass
+from typing import Callable, List, Optional
+
+from .link import BoardLink, Command, Port
+from .protocol import RT_ESTOP, RT_HOLD, RT_RESET, RT_RESUME, SEQ_MOD, Err, Status
+
+QUEUE_SIZE = 6
+DISCONNECTED, CONNECTING, CONNECTED = "disconnected", "connecting", "connected"
+
+
+@dataclass
+class SessionConfig:
+    ack_timeout: float = 0.5          # seconds before unacknowledged lines are sent again
+    status_interval: float = 0.04     # '?' polling period
+    reconnect_timeout: float = 30.0   # a job waits this long for a vanished port
+    backoff_min: float = 0.1          # first wait before opening the port again
+    backoff_max: float = 2.0
+    rt_retry: float = 0.15            # send an unconfirmed real-time byte again after this
+    rt_timeout: float = 3.0           # give up confirming it
+
+
+@dataclass
+class JobResult:
+    success: bool
+    message: str
+    executed: int       # commands the board started
+    completed: int      # commands the board finished
+
+
+@dataclass
+class Job:
+    commands: List[Command]
+    lease: float = 0.0                  # seconds without renew() before the job stops; 0 = none
+    renewed_at: float = 0.0
+    error: Optional[str] = None         # set: the job failed, the board is being stopped
+    interrupted: bool = False           # it ended inside a command (stop, reset)
+    stopping: Optional[str] = None      # nothing more is sent; ends when the board rests
+    stop_at: float = 0.0
+    acknowledged: int = 0
+    started: int = 0                    # from the last status that could be trusted
+    status_at_last_ack: int = 0
+    disconnected_at: Optional[float] = None
+    result: Optional[JobResult] = None
+
+    @property
+    def first(self) -> int:
+        return self.commands[0].seq
+
+    @property
+    def last(self) -> int:
+        return self.commands[-1].seq
+
+    def line_of(self, index: int) -> int:
+        if not self.commands:
+            return 0
+        return int(self.commands[min(max(index, 0), len(self.commands) - 1)].tag or 0)
+
+
+@dataclass
+class _Realtime:
+    byte: bytes
+    check: Callable[[Status], bool]
+    sent_at: float
+    deadline: float
+    done: bool = False
+    failed: bool = False
+
+
+def started_index(first_wire: int, count: int, st: Status) -> int:
+    """How many of `count` commands numbered from first_wire (16-bit) the
+    board has started, from its status: S is the last one started."""
+    k = (st.seq - first_wire) % SEQ_MOD
+    if k < count:
+        return k + 1
+    return 0 if k >= SEQ_MOD // 2 else count
+
+
+class BoardSession:
+    def __init__(self, open_port: Callable[[], Port], config: SessionConfig = SessionConfig(),
+                 clock: Callable[[], float] = time.monotonic,
+                 on_status: Optional[Callable[[Status], None]] = None,
+                 on_change: Optional[Callable[[], None]] = None,
+                 log: Callable[[str], None] = lambda text: None) -> None:
+        self._open_port = open_port
+        self.config = config
+        self.clock = clock
+        self.on_status = on_status
+        self.on_change = on_change          # connection state or error changed
+        self.log = log
+        self.lock = threading.RLock()
+        self._cond = threading.Condition(self.lock)
+        self.port: Optional[Port] = None
+        self.link: Optional[BoardLink] = None
+        self.connection = DISCONNECTED
+        self.position_known = True          # the power-on origin, until a reset is seen
+        self.last_error = ""
+        self.firmware = ""
+        self.job: Optional[Job] = None
+        self.status_count = 0
+        self._synced = False
+        self._resync = False
+        self._rt: Optional[_Realtime] = None
+        self._backoff = config.backoff_min
+        self._next_open = 0.0
+        self._origin_cmd: Optional[Command] = None
+        self._origin_result: Optional[str] = None
+        self.board_resets = 0
+
+    # --- the pump (I/O thread) ------------------------------------------------------
+    def pump(self) -> None:
+        with self.lock:
+            now = self.clock()
+            if self.port is None:
+                self._expire_disconnected_job(now)
+                if now < self._next_open:
+                    return
+                self._connect(now)
+                if self.port is None:
+                    return
+            try:
+                self.link.poll()
+                self._retry_realtime(self.clock())
+                self._check_lease(self.clock())
+            except Exception as exc:  # serial.SerialException, OSError: the port is gone
+                self._lost(exc)
+
+    def _connect(self, now: float) -> None:
+        try:
+            port = self._open_port()
+        except Exception as exc:
+            self._next_open = now + self._backoff
+            self._backoff = min(self._backoff * 2, self.config.backoff_max)
+            self._set_error(f"disconnected: {exc}", quiet=True)
+            return
+        self.port = port
+        self.connection = CONNECTING
+        if self.link is None:
+            self.link = BoardLink(port, ack_timeout=self.config.ack_timeout,
+                                  status_interval=self.config.status_interval, clock=self.clock,
+                                  on_status=self._on_status, on_error=self._on_error,
+                                  on_banner=self._on_banner, on_message=self._on_message,
+                                  on_ack=self._on_ack, on_mismatch=self._on_mismatch)
+            self.link.request_status()
+        else:
+            self.link.attach(port)
+        self.log("port open, waiting for the board's status")
+        self._changed()
+
+    def _lost(self, exc: Exception) -> None:
+        self.log(f"serial link lost: {exc}")
+        if self.port is not None:
+            try:
+                self.port.close()
+            except Exception:
+                pass
+        self.port = None
+        self.connection = DISCONNECTED
+        self._backoff = self.config.backoff_min
+        self._next_open = self.clock() + self._backoff
+        if self._rt is not None and not self._rt.done:
+            self._rt.failed = True
+            self._rt = None
+        job = self.job
+        if job is not None and job.result is None and job.disconnected_at is None:
+            job.disconnected_at = self.clock()
+        self._set_error(f"disconnected: {exc}")
+        self._cond.notify_all()
+
+    def _expire_disconnected_job(self, now: float) -> None:
+        job = self.job
+        if job is None or job.result is not None or job.disconnected_at is None:
+            return
+        if now - job.disconnected_at > self.config.reconnect_timeout:
+            started = job.started
+            self._finish(job, False, f"port lost for more than {self.config.reconnect_timeout:g} s: "
+                         f"job aborted after line {job.line_of(started - 2)}; the board may have "
+                         f"finished up to {min(started + QUEUE_SIZE, len(job.commands))} commands",
+                         started, max(started - 1, 0))
+            self.link.discard()
+            self._resync = True
+
+    # --- link callbacks (lock held) ----------------------------------------------
+    def _on_mismatch(self, st: Status) -> None:
+        if not self._synced:
+            self._sync(st)          # first contact: take the board's numbering
+            return
+        self._board_reset(f"board reset (it expects line {st.next_seq}, the bridge had sent "
+                          f"up to {self.link.last_sent % SEQ_MOD})")
+        self._sync(st)
+
+    def _sync(self, st: Optional[Status], expected: int = 0, free: int = QUEUE_SIZE) -> None:
+        if st is not None:
+            expected, free = st.next_seq, st.queue_free
+        self.link.sync(expected, free)
+        self.link.submit("")        # an empty numbered line: after it, N = 0 means a reset
+        self._synced = True
+        self._resync = False
+
+    def _on_status(self, st: Status) -> None:
+        self.status_count += 1
+        if self.connection != CONNECTED:
+            self.connection = CONNECTED
+            job = self.job
+            if job is not None and job.result is None and job.disconnected_at is not None:
+                job.disconnected_at = None
+                nxt = self.link.expected(st)
+                self.log(f"port back: the board expects command {nxt - job.first + 1} of the job; "
+                         f"going on from there")
+                self._set_error(f"reconnected; job resumed at line {job.line_of(nxt - job.first)}")
+            self._changed()
+        rt = self._rt
+        if rt is not None and not rt.done and rt.check(st):
+            rt.done = True
+            self._rt = None
+        if self._resync and self._rt is None and (self.job is None or self.job.result is not None):
+            self._sync(st)
+        job = self.job
+        if job is not None and job.commands and job.result is None:
+            job.started = max(job.started, started_index(job.first % SEQ_MOD, len(job.commands), st))
+            if st.state == "Alarm" and job.error is None:
+                self._fail(job, f"board alarm (code {st.alarm})", stop=False)
+            self._check_job_end(job, st)
+        if self.on_status:
+            self.on_status(st)
+        self._cond.notify_all()
+
+    def _on_ack(self, cmd: Command) -> None:
+        job = self.job
+        if job is not None and job.commands and job.first <= cmd.seq <= job.last:
+            job.acknowledged += 1
+            job.status_at_last_ack = self.status_count
+        if cmd is self._origin_cmd:
+            self.position_known = True
+            self._origin_result = ""
+            self._set_error("")
+            self._cond.notify_all()
+
+    def _on_error(self, cmd: Command, err: Err) -> None:
+        text = f"board refused '{cmd.text}': E{err.code} {err.text}"
+        if cmd is self._origin_cmd:
+            self._origin_result = text
+            self._cond.notify_all()
+            return
+        self._set_error(text)
+        job = self.job
+        if job is not None and job.result is None and job.commands and job.first <= cmd.seq <= job.last:
+            self._fail(job, f"{text} (line {cmd.tag})", stop=True)
+
+    def _on_banner(self, text: str) -> None:
+        self.firmware = text
+        if self._synced:
+            self._board_reset("board reset (start-up banner)")
+        self._sync(None, 0, QUEUE_SIZE)
+
+    def _on_message(self, text: str) -> None:
+        if text.startswith("[alarm"):
+            self._set_error(text.strip("[]"))
+            job = self.job
+            if job is not None and job.result is None and job.error is None:
+                self._fail(job, f"board alarm: {text.strip('[]')}", stop=False)
+
+    def _board_reset(self, why: str) -> None:
+        self.board_resets += 1
+        self.position_known = False
+        self.log(f"{why}: position unknown until the origin is set")
+        self._set_error(f"{why}: position unknown until set_origin")
+        self._rt = None
+        job = self.job
+        if job is not None and job.result is None:
+            started = job.started
+            self._finish(job, False, f"{why} during the job, after line {job.line_of(started - 2)}: "
+                         f"job aborted, the position is unknown; set the origin and start again",
+                         started, max(started - 1, 0))
+        self.link.discard()
+
+    # --- jobs ---------------------------------------------------------------------
+    def start_job(self, commands: List[str], lines: List[int], lease: float = 0.0) -> Job:
+        """Queue a job; its `result` is set when it ends (see wait_job)."""
+        with self.lock:
+            if self.job is not None and self.job.result is None:
+                raise RuntimeError("another job is running")
+            why = None
+            st = self.link.status if self.link else None
+            if self.connection != CONNECTED or st is None:
+                why = "board not connected"
+            elif not self.position_known:
+                why = "position unknown after a board reset: set the origin first"
+            elif st.state == "Alarm":
+                why = "board in alarm: reset it first"
+            elif self._rt is not None:
+                why = "board busy with a stop or reset"
+            if why:
+                job = Job([])
+                job.result = JobResult(False, why, 0, 0)
+                return job
+            if self._resync:
+                self._sync(st)
+            job = Job([self.link.submit(c, tag=ln) for c, ln in zip(commands, lines)],
+                      lease=lease, renewed_at=self.clock())
+            self.job = job
+            return job
+
+    def renew(self, job: Job) -> None:
+        with self.lock:
+            job.renewed_at = self.clock()
+
+    def wait_job(self, job: Job, timeout: float) -> Optional[JobResult]:
+        with self._cond:
+            self._cond.wait_for(lambda: job.result is not None, timeout)
+            return job.result
+
+    def progress(self, job: Job) -> tuple:
+        """(acknowledged, started, line of the command executing)."""
+        with self.lock:
+            return job.acknowledged, job.started, job.line_of(job.started - 1)
+
+    def _check_lease(self, now: float) -> None:
+        job = self.job
+        if job is None or job.result is not None or job.lease <= 0 or job.stopping or job.error:
+            return
+        if now - job.renewed_at > job.lease:
+            self._stop_feeding(job, f"client gone (no renewal for {job.lease:g} s)")
+
+    def _stop_feeding(self, job: Job, why: str) -> None:
+        job.stopping = why
+        job.stop_at = self.clock()
+        self.link.discard()
+        self.log(f"{why}: sending nothing more; the board finishes what it acknowledged")
+
+    def _fail(self, job: Job, why: str, stop: bool) -> None:
+        """The job cannot go on: discard what is unsent, stop the board (hold,
+        then reset, keeping the position) unless it already stopped."""
+        if job.error is not None:
+            return
+        job.error = why
+        job.interrupted = True
+        self._set_error(why)
+        self.link.discard()
+        self._resync = True
+        if stop:
+            self._request_rt(RT_HOLD, _held_still())
+
+    def _check_job_end(self, job: Job, st: Status) -> None:
+        link = self.link
+        at_rest = st.state in ("Idle", "Alarm") and st.queue_free == QUEUE_SIZE
+        if job.error is not None:
+            if st.state == "Hold" and self._rt is None:
+                self._request_rt(RT_RESET, _reset_done)      # held still: now flush the queue
+                return
+            if at_rest and self._rt is None:
+                self._finish(job, False, job.error, job.started, max(job.started - 1, 0))
+            return
+        if job.stopping is not None:
+            if at_rest and self.clock() - job.stop_at > 0.3:
+                self._finish(job, False, f"{job.stopping}: stopped after {job.started} of "
+                             f"{len(job.commands)} commands (line {job.line_of(job.started - 1)})",
+                             job.started, job.started)
+            return
+        if (link.outstanding == 0 and self.status_count > job.status_at_last_ack
+                and st.state == "Idle" and st.queue_free == QUEUE_SIZE):
+            self._finish(job, True, "done", len(job.commands), len(job.commands))
+
+    def _finish(self, job: Job, success: bool, message: str, executed: int, completed: int) -> None:
+        job.result = JobResult(success, message, executed, completed)
+        if not success:
+            self.log(f"job ended: {message}")
+            self._resync = True
+        self._cond.notify_all()
+
+    def cancel(self, job: Job, timeout: float = 10.0) -> Optional[JobResult]:
+        """Stop a job where it is (hold, then reset: the position is kept)."""
+        with self.lock:
+            if job.result is None:
+                self._fail(job, "canceled", stop=True)
+        return self.wait_job(job, timeout)
+
+    # --- real-time commands ----------------------------------------------------------
+    def _request_rt(self, byte: bytes, check: Callable[[Status], bool]) -> _Realtime:
+        now = self.clock()
+        rt = _Realtime(byte, check, now, now + self.config.rt_timeout)
+        self._rt = rt
+        self._send_rt(rt)
+        return rt
+
+    def _send_rt(self, rt: _Realtime) -> None:
+        # ESC acts anywhere; the others only between lines, so end any line first.
+        self.link.port.write(rt.byte if rt.byte == RT_ESTOP else b"\n" + rt.byte)
+        rt.sent_at = self.clock()
+        self.link.request_status()
+
+    def _retry_realtime(self, now: float) -> None:
+        rt = self._rt
+        if rt is None:
+            return
+        if now > rt.deadline:
+            rt.failed = True
+            self._rt = None
+            self._set_error(f"the board did not confirm real-time byte {rt.byte!r}")
+            return
+        if now - rt.sent_at > self.config.rt_retry:
+            self._send_rt(rt)
+
+    def realtime(self, what: str, timeout: Optional[float] = None) -> tuple:
+        """estop, hold, resume or reset, confirmed by a status report:
+        (success, message)."""
+        byte, check = {"estop": (RT_ESTOP, _in_alarm), "hold": (RT_HOLD, _held),
+                       "resume": (RT_RESUME, _not_held), "reset": (RT_RESET, _reset_done)}[what]
+        with self.lock:
+            if self.port is None or self.link is None:
+                return False, "board not connected"
+            job = self.job
+            if what in ("estop", "reset"):
+                if job is not None and job.result is None:
+                    job.error = job.error or ("emergency stop" if what == "estop" else "reset")
+                    job.interrupted = True
+                    self._set_error(job.error)
+                self.link.discard()
+                self._resync = True
+            if what == "reset":
+                self._set_error("")
+            rt = self._request_rt(byte, check)
+        with self._cond:
+            self._cond.wait_for(lambda: rt.done or rt.failed or self._rt is not rt,
+                                self.config.rt_timeout if timeout is None else timeout)
+        if rt.done:
+            return True, {"estop": "emergency stop", "hold": "feed hold", "resume": "resumed",
+                          "reset": "reset"}[what]
+        return False, f"{what} sent but not confirmed by the board"
+
+    def set_origin(self, timeout: float = 3.0) -> tuple:
+        """Make the current position the origin (a numbered `H`): (success, message)."""
+        with self.lock:
+            if self.connection != CONNECTED:
+                return False, "board not connected"
+            if self.job is not None and self.job.result is None:
+                return False, "a job is running"
+            if self._resync and self.link.status is not None:
+                self._sync(self.link.status)
+            self._origin_result = None
+            self._origin_cmd = self.link.submit("H")
+        with self._cond:
+            self._cond.wait_for(lambda: self._origin_result is not None, timeout)
+            result = self._origin_result
+        if result is None:
+            return False, "the board did not answer"
+        return (True, "origin set") if result == "" else (False, result)
+
+    # --- misc --------------------------------------------------------------------
+    def _set_error(self, text: str, quiet: bool = False) -> None:
+        if text != self.last_error:
+            self.last_error = text
+            if not quiet:
+                self._changed()
+
+    def _changed(self) -> None:
+        if self.on_change:
+            self.on_change()
+
+    def close(self) -> None:
+        with self.lock:
+            if self.port is not None:
+                try:
+                    self.port.close()
+                except Exception:
+                    pass
+            self.port = None
+
+
+def _in_alarm(st: Status) -> bool:
+    return st.state == "Alarm"
+
+
+def _held(st: Status) -> bool:
+    return st.state in ("Hold", "Alarm")
+
+
+def _not_held(st: Status) -> bool:
+    return st.state != "Hold"
+
+
+def _reset_done(st: Status) -> bool:
+    return st.state == "Idle" and st.queue_free == QUEUE_SIZE
+
+
+def _held_still() -> Callable[[Status], bool]:
+    """Hold confirmed once two reports in a row show the pen not moving."""
+    last: List[Status] = []
+
+    def check(st: Status) -> bool:
+        if st.state not in ("Hold", "Idle", "Alarm"):
+            last.clear()
+            return False
+        still = bool(last) and (last[-1].x, last[-1].y) == (st.x, st.y)
+        last[:] = [st]
+        return still
+    return check
+
