@@ -147,13 +147,14 @@ static uint8_t arc_quadrant(int16_t x, int16_t y)
     return arc_cw ? (uint8_t)(k >> 4) : (uint8_t)(k & 0x0F);
 }
 
-/* Steps of the staircase between (x, y) and the point at radius arc_r on
- * half-axis k (+X, +Y, -X, -Y = 0..3; 4: the centre) bounding the point's
- * quadrant: it moves monotonically, and the point lies on the axis's side. */
-static uint16_t axis_steps(uint8_t k, int16_t x, int16_t y)
+/* Adds to arc_t the steps of the staircase between point p (p[0], p[1])
+ * and the point at radius arc_r on half-axis k (+X, +Y, -X, -Y = 0..3; 4:
+ * the centre) bounding the point's quadrant: the staircase moves
+ * monotonically, and the point lies on the axis's side of the centre. */
+static void add_axis_steps(uint8_t k, IDATA int16_t *p)
 {
-    uint16_t ax = (uint16_t)(x < 0 ? -x : x);
-    uint16_t ay = (uint16_t)(y < 0 ? -y : y);
+    uint16_t ax = (uint16_t)(p[0] < 0 ? -p[0] : p[0]);
+    uint16_t ay = (uint16_t)(p[1] < 0 ? -p[1] : p[1]);
     if (k < 4) {
         if (k & 1) {
             ay = ay > arc_r ? ay - arc_r : arc_r - ay;
@@ -161,34 +162,55 @@ static uint16_t axis_steps(uint8_t k, int16_t x, int16_t y)
             ax = ax > arc_r ? ax - arc_r : arc_r - ax;
         }
     }
-    return ax + ay;
+    arc_t += ax;
+    arc_t += ay;
 }
 
-static uint32_t mul(int16_t a, int16_t b)
+/* arc_t += a * b */
+static void add_product(int16_t a, int16_t b)
 {
-    return (uint32_t)((int32_t)a * b);
+    arc_t += (uint32_t)((int32_t)a * b);
 }
 
-/* A - B into *out if it is within -32767..32767; 0 if not. */
-static uint8_t difference(int16_t a, int16_t b, IDATA int16_t *out)
+/* Start and end relative to the centre: (-i, -j) and (dx - i, dy - j);
+ * E_RANGE if the end is outside -32767..32767. */
+static uint8_t arc_points(void)
 {
-    int32_t t = (int32_t)a - b;
-    if (t > 32767 || t < -32767) {
-        return 0;
+    int32_t t;
+    uint8_t k;
+    for (k = 0; k < 2; k++) {
+        t = (int32_t)(int16_t)plan_arg[k] - (int16_t)plan_arg[k + 2];
+        if (t > 32767 || t < -32767) {
+            return E_RANGE;
+        }
+        (&plan.c)[k] = (int16_t)t;
+        (&plan.a)[k] = -(int16_t)plan_arg[k + 2];
     }
-    *out = (int16_t)t;
-    return 1;
+    return E_OK;
 }
 
-/* Start and end in one quadrant: is the end behind the start (or on it),
- * so that the arc goes all the way round? */
-static uint8_t arc_all_round(void)
+/* Start and end in one quadrant, the final one: the moves towards the end
+ * (into plan.dirs, see segment.h) and the exact step count (into arc_t).
+ * Same quadrant: the differences do not overflow. */
+static void arc_final_quadrant(void)
 {
-    arc_t = mul(plan.a, plan.d);            /* the cross product start x end */
-    arc_t -= mul(plan.b, plan.c);
-    if (arc_cw) arc_t = 0 - arc_t;
-    if ((int32_t)arc_t < 0) return 1;
-    return arc_t == 0 && plan.a == plan.c && plan.b == plan.d;
+    int16_t e = plan.c - plan.a;
+    plan.dirs = 0;
+    if (e < 0) {
+        plan.dirs = MV_XN;
+        e = -e;
+    } else if (e) {
+        plan.dirs = MV_XP;
+    }
+    arc_t = (uint16_t)e;
+    e = plan.d - plan.b;
+    if (e < 0) {
+        plan.dirs |= MV_YN;
+        e = -e;
+    } else if (e) {
+        plan.dirs |= MV_YP;
+    }
+    arc_t += (uint16_t)e;
 }
 
 uint8_t planner_arc(uint8_t clockwise)
@@ -196,18 +218,16 @@ uint8_t planner_arc(uint8_t clockwise)
     uint8_t qe, cross;
 
     arc_cw = clockwise ? 1 : 0;
-    /* start and end relative to the centre */
-    plan.a = -(int16_t)plan_arg[2];
-    plan.b = -(int16_t)plan_arg[3];
-    if (!difference((int16_t)plan_arg[0], (int16_t)plan_arg[2], &plan.c)) return E_RANGE;
-    if (!difference((int16_t)plan_arg[1], (int16_t)plan_arg[3], &plan.d)) return E_RANGE;
-    arc_t = mul(plan.a, plan.a);            /* R^2, at most 2 * 32767^2 */
-    arc_t += mul(plan.b, plan.b);
+    if (arc_points()) return E_RANGE;
+    arc_t = 0;
+    add_product(plan.a, plan.a);            /* R^2, at most 2 * 32767^2 */
+    add_product(plan.b, plan.b);
     arc_sqrt();
     if (arc_r == 0) return E_ARC;           /* the centre is the start point */
     if (arc_r > 32767) return E_RANGE;
-    arc_t -= mul(plan.c, plan.c);
-    arc_t -= mul(plan.d, plan.d);
+    arc_t = 0 - arc_t;
+    add_product(plan.c, plan.c);            /* minus the end's squared radius */
+    add_product(plan.d, plan.d);
     if ((int32_t)arc_t < 0) arc_t = 0 - arc_t;
     if (arc_t > 2UL * arc_r + 1) return E_ARC;   /* end more than a step off the circle */
 
@@ -215,17 +235,26 @@ uint8_t planner_arc(uint8_t clockwise)
     plan.quadrant = arc_quadrant(plan.a, plan.b);
     qe = arc_quadrant(plan.c, plan.d);
     cross = (uint8_t)(arc_cw ? plan.quadrant - qe : qe - plan.quadrant) & 3;
-    if (cross == 0 && arc_all_round()) {
-        cross = 4;
+    if (cross == 0) {
+        /* Same quadrant: ahead of the start, or all the way round?  The
+         * cross product start x end says which side the end lies on. */
+        arc_t = 0;
+        add_product(plan.a, plan.d);
+        add_product(-plan.b, plan.c);
+        if (arc_cw) arc_t = 0 - arc_t;
+        if ((int32_t)arc_t < 0 || (arc_t == 0 && plan.a == plan.c && plan.b == plan.d)) {
+            cross = 4;
+        }
     }
     if (cross == 0) {
-        arc_t = axis_steps(4, plan.a - plan.c, plan.b - plan.d);   /* same quadrant: no overflow */
+        arc_final_quadrant();
     } else {
         /* Quadrant q runs from half-axis q to q+1 counter-clockwise, q+1 to q
          * clockwise; between the start's and the end's quadrants lie cross - 1
          * whole quadrants of 2r steps each. */
-        arc_t = axis_steps((uint8_t)(plan.quadrant + !arc_cw) & 3, plan.a, plan.b);
-        arc_t += axis_steps(qe == 4 ? (arc_cw ? 1 : 4) : (uint8_t)(qe + arc_cw) & 3, plan.c, plan.d);
+        arc_t = 0;
+        add_axis_steps((uint8_t)(plan.quadrant + !arc_cw) & 3, &plan.a);
+        add_axis_steps(qe == 4 ? (arc_cw ? 1 : 4) : (uint8_t)(qe + arc_cw) & 3, &plan.c);
         for (qe = cross; qe > 1; qe--) {
             arc_t += 2u * arc_r;
         }

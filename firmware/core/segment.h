@@ -13,9 +13,20 @@
 #define SEG_PEN     4   /* set or clear the pen bit, then dwell `steps` ms */
 #define SEG_DWELL   5   /* wait `steps` ms */
 
+/* Arc moves, one-hot. */
+#define MV_XP 0x01
+#define MV_XN 0x02
+#define MV_YP 0x04
+#define MV_YN 0x08
+#define MV_X  (MV_XP | MV_XN)
+#define MV_Y  (MV_YP | MV_YN)
+#define MV_NEG (MV_XN | MV_YN)
+
 typedef struct {
     uint8_t  kind;
-    uint8_t  dirs;          /* line: BIT_X_DIR|BIT_Y_DIR; pen: BIT_PEN or 0 */
+    uint8_t  dirs;          /* line: BIT_X_DIR|BIT_Y_DIR; pen: BIT_PEN or 0;
+                               arc in its final quadrant: the moves that head
+                               towards the end (MV_*), kept by the interrupt */
     uint16_t seq;           /* sequence number of the command (0 when typed) */
     int16_t  a, b;          /* line: |dx|, |dy|; arc: start relative to the centre */
     int16_t  c, d;          /* arc: end relative to the centre */

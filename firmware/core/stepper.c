@@ -40,7 +40,6 @@ FAST volatile uint8_t st_port;
 FAST volatile uint8_t st_level;
 IDATA volatile uint16_t st_underruns;
 
-static FAST uint8_t st_pulse;         /* step bits to emit at the next interrupt */
 static FAST uint16_t st_period;       /* HAL_PERIOD form: from the next pulse to the one after */
 static FAST int16_t st_lf;            /* line: deviation F */
 static FAST int32_t st_af;            /* arc: deviation F = x^2 + y^2 - R^2 */
@@ -50,17 +49,15 @@ static FAST uint16_t st_level_left;   /* steps left at the current level */
 static IDATA uint16_t st_below;       /* hold steps of all the levels below this one */
 static FAST uint16_t st_brake_at;     /* braking must have begun once steps left <= this */
 static FAST uint16_t st_cruise_to;    /* cruising: nothing to do while steps left > this */
+static FAST uint8_t st_cruise_lo, st_cruise_hi;  /* cruising on a line: steps to the braking point, see CRUISE_* */
+static FLAG st_pulse_x, st_pulse_y;   /* step to emit at the next interrupt */
+static FLAG st_load;                  /* the segment is done: load the next one */
+static FLAG st_line;                  /* the segment is a line */
 static FLAG st_cruising;              /* at the cruise level with its period set */
+static FLAG st_stale;                 /* st_period is not the current level's table period */
+static FLAG st_end_x0;                /* arc: the quadrant ends on the Y axis, where x reaches 0 */
+static FLAG st_end_neg;               /* arc: ... on its negative half */
 
-/* Arc moves, one-hot.  They coincide with port bits (step bit, and the
- * direction bit above it for the negative move), which the code does not
- * rely on. */
-#define MV_XP 0x01
-#define MV_XN 0x02
-#define MV_YP 0x04
-#define MV_YN 0x08
-#define MV_X  (MV_XP | MV_XN)
-#define MV_NEG (MV_XN | MV_YN)
 
 /* Per quadrant index (4 if clockwise, plus quadrant I..IV = 0..3): the move
  * for F >= 0 in the low nibble, for F < 0 in the high nibble (seed 000
@@ -82,6 +79,12 @@ static RAMP_ROM uint8_t arc_turns[8] = {
 #define HOLD_STEPS(level) \
     ((uint16_t)((uint8_t)ramp_hold[(uint8_t)(st_lbase + (level))] * (uint8_t)setting[SET_ACCEL]))  /* MUL AB */
 
+/* Steps to the braking point while cruising on a line, n >= 1, as
+ * n = 256 * st_cruise_hi + st_cruise_lo with st_cruise_lo in 1..256 (256
+ * stored as 0): counting down is one `djnz` per step. */
+#define CRUISE_SET(n) (st_cruise_hi = (uint8_t)((uint16_t)((n) - 1) >> 8), st_cruise_lo = (uint8_t)(n))
+#define CRUISE_LEFT() (((uint16_t)st_cruise_hi << 8) + (uint8_t)(st_cruise_lo - 1) + 1)
+
 void stepper_init(void)
 {
     pos_x = 0;
@@ -95,8 +98,9 @@ void stepper_init(void)
 
 void stepper_abort(void)
 {
-    st_seg.steps = 0;
-    st_pulse = 0;
+    st_load = 1;
+    st_pulse_x = 0;
+    st_pulse_y = 0;
     st_level = 0;
     st_running = 0;
     st_paused = 0;
@@ -105,12 +109,16 @@ void stepper_abort(void)
 void stepper_start(void)
 {
     st_lbase = setting[SET_SHAPE] ? RAMP_LEVELS : 0;
-    st_seg.steps = 0;
-    st_pulse = 0;
+    st_load = 1;
+    st_pulse_x = 0;
+    st_pulse_y = 0;
     st_level = 0;
     st_below = 0;
     st_level_left = HOLD_STEPS(0);
-    st_cruising = 0;
+    /* The first interrupt loads the first segment, which takes several
+     * hundred cycles: let the second, which emits the first pulse, come
+     * when it is done, so that the ramp starts on time. */
+    st_period = HAL_PERIOD(1024);
     st_paused = 0;
     st_running = 1;
     HAL_TIMER_START(64);
@@ -123,6 +131,15 @@ void stepper_resume(void)
         st_paused = 0;
         HAL_TIMER_START(64);
     }
+}
+
+/* An arc enters quadrant st_seg.quadrant: its moves and its end. */
+INLINE void arc_enter_quadrant(void)
+{
+    uint8_t turn = arc_turns[st_seg.quadrant];
+    st_moves = arc_moves[st_seg.quadrant];
+    st_end_x0 = turn & 1;
+    st_end_neg = (turn >> 1) & 1;
 }
 
 /* Copy the next queued segment into st_seg and prepare its interpolation.
@@ -142,7 +159,9 @@ INLINE uint8_t load_segment(void)
         *dst++ = *src++;
     } while (--n);
 
+    st_line = 0;
     if (st_seg.kind == SEG_LINE) {
+        st_line = 1;
         st_lf = st_seg.a ? 0 : -1;   /* a pure Y move must never take the F >= 0 branch */
         st_port = (st_port & ~(BIT_X_DIR | BIT_Y_DIR)) | st_seg.dirs;
     } else if (st_seg.kind >= SEG_PEN) {
@@ -155,7 +174,7 @@ INLINE uint8_t load_segment(void)
         st_level_left = HOLD_STEPS(0);
     } else {
         st_af = 0;
-        st_moves = arc_moves[st_seg.quadrant];
+        arc_enter_quadrant();
     }
     st_brake_at = st_below - st_seg.exit_brake + st_level_left;
     q_tail = QUEUE_NEXT(q_tail);
@@ -166,44 +185,20 @@ INLINE uint8_t load_segment(void)
         st_underruns++;
     }
     st_cruising = 0;
+    st_stale = 1;
     HAL_SEGMENT_STARTED(st_seg.seq);
     return 1;
-}
-
-/* Has the arc reached the half-axis that ends its quadrant?  Testing the
- * point, not the last move, keeps radius 1 right: its staircase passes
- * through the centre, which lies on every axis and ends no quadrant. */
-INLINE uint8_t at_end_axis(void)
-{
-    uint8_t axis = arc_turns[st_seg.quadrant];
-    int16_t on, along;
-    if (axis & 1) {
-        on = st_seg.a;
-        along = st_seg.b;
-    } else {
-        on = st_seg.b;
-        along = st_seg.a;
-    }
-    if (on != 0 || along == 0) {
-        return 0;
-    }
-    return (axis & 2) ? (along < 0) : !(along < 0);
 }
 
 /* The arc's next move (one-hot MV_*); in the final quadrant never pass the end. */
 INLINE uint8_t arc_next_move(void)
 {
     uint8_t mv, toward;
-    int16_t e;
-    mv = (st_af < 0) ? (uint8_t)(st_moves >> 4) : (uint8_t)(st_moves & 0x0F);
+    mv = ((int8_t)(st_af >> 24) < 0) ? (uint8_t)(st_moves >> 4) : (uint8_t)(st_moves & 0x0F);
     if (st_seg.crossings) {
         return mv;
     }
-    toward = 0;
-    e = st_seg.c - st_seg.a;     /* same quadrant: no overflow */
-    if (e) toward = (e < 0) ? MV_XN : MV_XP;
-    e = st_seg.d - st_seg.b;
-    if (e) toward |= (e < 0) ? MV_YN : MV_YP;
+    toward = st_seg.dirs;
     if (mv & toward) {
         return mv;
     }
@@ -216,115 +211,178 @@ INLINE uint8_t arc_next_move(void)
     return (toward & MV_X) ? (toward & MV_X) : toward;
 }
 
+/* The code is laid out for the common case, a line at cruise speed: it runs
+ * straight through to the end with one test per condition. */
 STEPPER_ISR
 {
     uint8_t mv;
     int16_t c;
 
     HAL_TIMER_ADVANCE(st_period);
-    if (st_pulse) {
-        HAL_PORT_OUT(st_port | st_pulse);
-        if (st_pulse & BIT_X_STEP) {   /* one axis per step */
-            if (st_port & BIT_X_DIR) pos_x--; else pos_x++;
-        } else {
-            if (st_port & BIT_Y_DIR) pos_y--; else pos_y++;
-        }
+    if (st_pulse_x) {                /* one axis per step */
+        HAL_PORT_OUT(st_port | BIT_X_STEP);
+        if (st_port & BIT_X_DIR) pos_x--; else pos_x++;
+        HAL_PORT_OUT(st_port);
+    } else if (st_pulse_y) {
+        HAL_PORT_OUT(st_port | BIT_Y_STEP);
+        if (st_port & BIT_Y_DIR) pos_y--; else pos_y++;
         HAL_PORT_OUT(st_port);
     }
-
-    if (st_seg.steps == 0) {
-        st_pulse = 0;
-        if (!load_segment()) {
-            HAL_TIMER_HALT();
-            st_level = 0;
-            st_running = 0;
-            return;
-        }
-        HAL_PORT_OUT(st_port);   /* directions and pen settle a whole period before the pulse */
-        if (st_seg.steps == 0) {
-            st_period = HAL_PERIOD(64);   /* empty segment: look again shortly */
-            return;
-        }
+    if (st_load) {
+        goto load;
     }
+run:
+    if (!st_line) {
+        goto not_line;
+    }
+    if (st_hold && st_level == 0) {
+        goto pause;
+    }
+    if ((int8_t)(st_lf >> 8) >= 0) {
+        st_pulse_x = 1;
+        st_pulse_y = 0;
+        st_lf -= st_seg.b;
+    } else {
+        st_pulse_x = 0;
+        st_pulse_y = 1;
+        st_lf += st_seg.a;
+    }
+    if (!st_cruising) {
+        st_seg.steps--;
+        goto ramp;
+    }
+cruise_step:
+    /* Cruising: the step count is kept as its distance to the braking point,
+     * which is all there is to watch (and a feed hold). */
+    if (--st_cruise_lo == 0) {
+        if (st_cruise_hi == 0) {
+            st_seg.steps = st_cruise_to;
+            goto cruise_end;
+        }
+        st_cruise_hi--;
+    }
+    if (!st_hold) {
+        return;
+    }
+    st_seg.steps = st_cruise_to + CRUISE_LEFT();
+cruise_end:
+    if (st_seg.steps == 0 && !st_line && st_seg.crossings) {
+        st_seg.steps = 1;            /* an arc's estimate runs out at its end, not before */
+    }
+    goto ramp;
 
+not_line:
     if (st_seg.kind == SEG_DWELL) {
         st_period = HAL_PERIOD(DWELL_PERIOD);
-        st_seg.steps--;
-        return;
-    }
-
-    if (st_hold && st_level == 0) {
-        /* Feed hold has slowed to the start rate: stop here, resume later. */
-        HAL_TIMER_HALT();
-        st_paused = 1;
-        st_pulse = 0;
-        return;
-    }
-
-    if (st_seg.kind == SEG_LINE) {
-        if (st_lf >= 0) {
-            st_pulse = BIT_X_STEP;
-            st_lf -= st_seg.b;
-        } else {
-            st_pulse = BIT_Y_STEP;
-            st_lf += st_seg.a;
+        if (--st_seg.steps == 0) {
+            st_load = 1;
         }
-        st_seg.steps--;
-    } else {
-        mv = arc_next_move();
-        /* F = x^2 + y^2 - R^2 changes by 2c+1 when c becomes c+1, by -2c+1 when c becomes c-1. */
-        if (mv & MV_X) {
+        return;
+    }
+    if (st_hold && st_level == 0) {
+        goto pause;
+    }
+    /* Arc.  F = x^2 + y^2 - R^2 changes by 2c+1 when a coordinate c becomes
+     * c+1, by -2c+1 when it becomes c-1. */
+    mv = arc_next_move();
+    if (mv & MV_X) {
+        st_pulse_x = 1;
+        st_pulse_y = 0;
+        if (mv & MV_NEG) {
+            c = -st_seg.a;
+            st_seg.a--;
+            st_port |= BIT_X_DIR;
+        } else {
             c = st_seg.a;
-            st_pulse = BIT_X_STEP;
+            st_seg.a++;
+            st_port &= (uint8_t)~BIT_X_DIR;
+        }
+    } else {
+        st_pulse_x = 0;
+        st_pulse_y = 1;
+        if (mv & MV_NEG) {
+            c = -st_seg.b;
+            st_seg.b--;
+            st_port |= BIT_Y_DIR;
         } else {
             c = st_seg.b;
-            st_pulse = BIT_Y_STEP;
+            st_seg.b++;
+            st_port &= (uint8_t)~BIT_Y_DIR;
         }
-        if (mv & MV_NEG) {
-            c = -c;
-            st_port |= (uint8_t)(st_pulse << 1);           /* direction bit sits above its step bit */
+    }
+    st_af += ((int32_t)c << 1) + 1;
+    HAL_PORT_OUT(st_port);           /* direction set a whole period before its pulse */
+    if (st_seg.crossings) {
+        /* Has the arc reached the half-axis that ends its quadrant?  Testing
+         * the point, not the last move, keeps radius 1 right: its staircase
+         * passes through the centre, which lies on every axis and ends no
+         * quadrant. */
+        if (st_end_x0) {
+            if (st_seg.a != 0) goto in_quadrant;
+            c = st_seg.b;
         } else {
-            st_port &= (uint8_t)~(st_pulse << 1);
+            if (st_seg.b != 0) goto in_quadrant;
+            c = st_seg.a;
         }
-        st_af += ((int32_t)c << 1) + 1;
-        if (mv == MV_XP) st_seg.a++;
-        else if (mv == MV_XN) st_seg.a--;
-        else if (mv == MV_YP) st_seg.b++;
-        else st_seg.b--;
-        if (st_seg.crossings) {
-            if (at_end_axis()) {
-                st_seg.quadrant = arc_turns[st_seg.quadrant] >> 4;
-                st_moves = arc_moves[st_seg.quadrant];
-                if (--st_seg.crossings == 0) {
-                    /* Final quadrant: the remaining count is now exact. */
-                    c = st_seg.c - st_seg.a;
-                    st_seg.steps = (uint16_t)(c < 0 ? -c : c);
-                    c = st_seg.d - st_seg.b;
-                    st_seg.steps += (uint16_t)(c < 0 ? -c : c);
+        if (c != 0 && (c < 0) == st_end_neg) {
+            st_seg.quadrant = arc_turns[st_seg.quadrant] >> 4;
+            arc_enter_quadrant();
+            if (--st_seg.crossings == 0) {
+                /* Final quadrant: the remaining count is now exact, and the
+                 * moves towards the end are known (same quadrant: the
+                 * differences do not overflow). */
+                st_seg.dirs = 0;
+                c = st_seg.c - st_seg.a;
+                if (c < 0) {
+                    st_seg.dirs = MV_XN;
+                    c = -c;
+                } else if (c) {
+                    st_seg.dirs = MV_XP;
                 }
+                st_seg.steps = (uint16_t)c;
+                c = st_seg.d - st_seg.b;
+                if (c < 0) {
+                    st_seg.dirs |= MV_YN;
+                    c = -c;
+                } else if (c) {
+                    st_seg.dirs |= MV_YP;
+                }
+                st_seg.steps += (uint16_t)c;
+                goto ramp;
             }
-            if (st_seg.crossings && st_seg.steps > 1) {
-                st_seg.steps--;
-            }
-        } else {
-            st_seg.steps--;
         }
-        HAL_PORT_OUT(st_port);   /* direction set a whole period before its pulse */
+    in_quadrant:
+        if (st_cruising) {
+            goto cruise_step;
+        }
+        if (--st_seg.steps == 0) {
+            st_seg.steps = 1;        /* an estimate: the count runs out at the end, not before */
+        }
+    } else {
+        /* An axis that reached its end coordinate moves no more. */
+        if (st_pulse_x) {
+            if (st_seg.a == st_seg.c) st_seg.dirs &= (uint8_t)~MV_X;
+        } else if (st_seg.b == st_seg.d) {
+            st_seg.dirs &= (uint8_t)~MV_Y;
+        }
+        if (st_cruising) {
+            goto cruise_step;
+        }
+        st_seg.steps--;
     }
 
-    /* Ramp.  At the cruise level only the braking point needs watching. */
-    if (st_cruising && !st_hold && st_seg.steps > st_cruise_to) {
-        return;
-    }
+ramp:
+    /* Brake to the exit level in time, else climb to the cruise level. */
     st_cruising = 0;
     if (st_level && (st_hold || st_level > st_seg.cruise ||
                      (st_level > st_seg.exit && st_seg.steps <= st_brake_at))) {
-        /* Brake to the exit level in time (or to a stop for a feed hold). */
+        /* Brake (or slow down for a feed hold). */
         st_brake_at--;
         if (--st_level_left == 0) {
             st_level--;
             st_level_left = HOLD_STEPS(st_level);
             st_below -= st_level_left;
+            st_stale = 1;
         }
     } else if (st_level < st_seg.cruise && !st_hold) {
         /* Climb towards the cruise level. */
@@ -336,15 +394,50 @@ STEPPER_ISR
             st_level++;
             st_level_left = HOLD_STEPS(st_level);
             st_brake_at += st_level_left;
+            st_stale = 1;
         }
     } else {
         /* Cruise at the commanded feed until the braking point (never, if
          * the exit level is not below this one). */
         st_period = st_seg.cruise_period;
+        st_stale = 1;
         st_cruise_to = (st_level > st_seg.exit) ? st_brake_at : 0;
+        CRUISE_SET(st_seg.steps - st_cruise_to);
         st_cruising = 1;
+        goto done;
+    }
+    if (st_stale) {
+        st_stale = 0;
+        mv = (uint8_t)(st_lbase + st_level);
+        st_period = ((uint16_t)ramp_period_hi[mv] << 8) | ramp_period_lo[mv];
+    }
+done:
+    if (st_seg.steps == 0) {
+        st_load = 1;
+    }
+    return;
+
+load:
+    st_pulse_x = 0;
+    st_pulse_y = 0;
+    if (!load_segment()) {
+        HAL_TIMER_HALT();
+        st_level = 0;
+        st_running = 0;
         return;
     }
-    mv = (uint8_t)(st_lbase + st_level);
-    st_period = ((uint16_t)ramp_period_hi[mv] << 8) | ramp_period_lo[mv];
+    HAL_PORT_OUT(st_port);           /* directions and pen settle a whole period before the pulse */
+    if (st_seg.steps == 0) {
+        st_period = HAL_PERIOD(64);  /* empty segment: look again shortly */
+        return;
+    }
+    st_load = 0;
+    goto run;
+
+pause:
+    /* Feed hold has slowed to the start rate: stop here, resume later. */
+    HAL_TIMER_HALT();
+    st_paused = 1;
+    st_pulse_x = 0;
+    st_pulse_y = 0;
 }
