@@ -1,0 +1,161 @@
+#!/usr/bin/env python3
+"""Machine cycles per step of the 8051 image, measured in the s51 simulator.
+
+usage: tools/bench.py build/plotter        (make bench)
+
+For a long line and for an arc the board is driven through its UART like a
+host would, and s51 records a VCD trace of port 1 and of PSW.3 (the register
+bank bit only the step interrupt sets, see tools/s51sim.py).  From the trace:
+
+- cycles per step: the time between two step pulses;
+- ISR cycles: the time PSW.3 is set, plus the interrupt's fixed entry and
+  exit (the hardware call, the pushes before `mov psw` and the pops after
+  `pop psw`, counted from the listing) - one interrupt computes one step;
+- the ramp is run twice: as commanded (feed at the ramp's top rate, T in
+  `$I`), and with the cruise period overwritten in RAM by one far below what
+  the interrupt needs (a feed "above what the CPU can do"), so that the
+  interrupt runs back to back: the period it can sustain, main loop included
+  (the 8051 runs one main-loop instruction between two interrupts).
+
+Ends with the two lines `line: N steps/s` and `arc: N steps/s`, the
+sustained rates at 11.0592 MHz.
+"""
+import re
+import statistics
+import sys
+import tempfile
+from pathlib import Path
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+import s51sim  # noqa: E402
+
+STEP_BITS = 0x05                       # P1.0 X step, P1.2 Y step (core/config.h)
+CYCLES_PER_S = s51sim.CLOCK_HZ // 12
+
+
+def segment_offsets(header):
+    """Byte offsets of the fields of segment_t (core/segment.h)."""
+    text = Path(header).read_text()
+    body = re.search(r"typedef struct \{(.*?)\} segment_t;", text, re.S).group(1)
+    sizes = {"uint8_t": 1, "int8_t": 1, "uint16_t": 2, "int16_t": 2}
+    off, out = 0, {}
+    for m in re.finditer(r"(u?int\d+_t)\s+([^;]+);", body):
+        for name in m.group(2).split(","):
+            out[name.strip()] = off
+            off += sizes[m.group(1)]
+    return out
+
+
+def isr_overhead(sym):
+    """Cycles of the step interrupt outside the PSW.3 window: the hardware
+    LCALL (2), the instructions up to and including `mov psw,#0x08`, and
+    those after `pop psw` up to and including `reti`."""
+    lines = sym.rst["stepper"]
+    start = next(i for i, l in enumerate(lines) if re.match(r"\s+[0-9A-F]{6}\s+\d+\s+_stepper_isr:", l))
+    code = []
+    for line in lines[start + 1:]:
+        m = re.match(r"\s+[0-9A-F]{6}\s+(?:[0-9A-F]{2}\s)+\s*\[(\d+)\]\s+\d+\s+(\w+)\s*([^;]*)", line)
+        if m:
+            code.append((int(m.group(1)) // 12, m.group(2), m.group(3).strip()))
+            if m.group(2) == "reti":
+                break
+    entry = next(i for i, c in enumerate(code) if c[1] == "mov" and c[2].startswith("psw,"))
+    exit_ = max(i for i, c in enumerate(code) if c[1] == "pop" and c[2] == "psw")
+    return 2 + sum(c[0] for c in code[:entry + 1]) + sum(c[0] for c in code[exit_ + 1:])
+
+
+def measure(sim, command, wait_s, saturate):
+    """Run one command; the step intervals and ISR durations in cycles, and
+    the periods the ramp asked for (cycles), from the VCD trace."""
+    offs = segment_offsets(s51sim.FIRMWARE / "core" / "segment.h")
+    sim.vcd_start()
+    sim.go()
+    sim.write(command.encode() + b"\n")
+    reply = sim.read_until(rb"(?:ok|err|rs)[^\r\n]*\r\n").decode().strip()
+    if not reply.startswith("ok"):
+        raise RuntimeError(f"{command!r}: {reply!r}")
+    if saturate:
+        # The segment is loaded within 64 cycles of the reply; from the
+        # cruise level on the interrupt then reschedules itself at once.
+        sim.stop()
+        sim.set_iram(sim.sym["_st_seg"] + offs["cruise_period"], [0xFF, 0xFF])
+        sim.go()
+    import time
+    time.sleep(wait_s)
+    sim.stop()
+    sim.vcd_stop()
+
+
+def analyse(vcd_path, overhead):
+    ev = s51sim.read_vcd(vcd_path)
+    pulses = []
+    prev = 0xFF
+    for t, v in ev["P1"]:
+        if v & STEP_BITS and not prev & STEP_BITS:
+            pulses.append(t)
+        prev = v
+    intervals = [s51sim.cycles(b - a) for a, b in zip(pulses, pulses[1:])]
+    isr = []
+    start = None
+    for t, v in ev["PSW.3"]:
+        if v and start is None:
+            start = t
+        elif not v and start is not None:
+            isr.append(s51sim.cycles(t - start) + overhead)
+            start = None
+    return [round(x) for x in intervals], [round(x) for x in isr]
+
+
+def summary(values):
+    return (f"min {min(values)}  median {statistics.median(values):g}  "
+            f"mean {statistics.mean(values):.1f}  max {max(values)}  (n={len(values)})")
+
+
+def main(argv):
+    base = Path(argv[1]) if len(argv) > 1 else s51sim.FIRMWARE / "build" / "plotter"
+    if not s51sim.s51_path():
+        print("s51 (Debian package sdcc-ucsim) is not installed", file=sys.stderr)
+        return 1
+    results = {}
+    with tempfile.TemporaryDirectory() as tmp:
+        cases = [
+            ("line", "L 30000 0 12850", 2.5),
+            ("arc", "A 0 0 1500 0 12850", 4.0),
+        ]
+        for name, command, wait_s in cases:
+            for saturate in (False, True):
+                vcd = str(Path(tmp) / f"{name}{int(saturate)}.vcd")
+                with s51sim.Sim(base, vcd=vcd) as sim:
+                    overhead = isr_overhead(sim.sym)
+                    sim.go()
+                    sim.read_until(rb"ready[^\n]*\n")
+                    sim.stop()
+                    measure(sim, command, wait_s, saturate)
+                intervals, isr = analyse(vcd, overhead)
+                results[(name, saturate)] = (intervals, isr)
+                label = "saturated (cruise period overwritten)" if saturate else "as commanded"
+                print(f"{name}: {command!r}, {label}")
+                print(f"  steps recorded      {len(intervals) + 1}")
+                print(f"  cycles per step     {summary(intervals)}")
+                print(f"  ISR cycles per step {summary(isr)}")
+    print()
+    rates = {}
+    for name in ("line", "arc"):
+        intervals, isr = results[(name, True)]
+        # Cruise: the middle half of the segment (each ramp takes well under
+        # a tenth of it).  Steps there come as fast as the interrupt can go.
+        n = len(intervals)
+        cruise = intervals[n // 4:3 * n // 4]
+        cruise_isr = isr[n // 4:3 * n // 4]
+        per_step = statistics.mean(cruise)
+        rates[name] = int(CYCLES_PER_S / per_step)
+        print(f"{name} at saturation, cruise: {per_step:.1f} machine cycles per step "
+              f"(ISR {min(cruise_isr)}..{max(cruise_isr)} cycles per step, "
+              f"{min(isr)}..{max(isr)} over the whole segment incl. ramps and segment load)")
+    for name in ("line", "arc"):
+        print(f"{name}: {rates[name]} steps/s")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main(sys.argv))

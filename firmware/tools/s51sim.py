@@ -1,0 +1,263 @@
+#!/usr/bin/env python3
+"""Run the 8051 image in the uCsim simulator s51 and talk to it.
+
+Used by tools/bench.py and tests/test_firmware_sim.py.  The simulated board:
+
+- s51 -t 8052 -X 11.0592M, the STC89C52RC's clock: one machine cycle is
+  12 clocks, CYCLE_PS picoseconds;
+- its UART on two pseudo-terminals in raw mode (`-S in=...,out=...`), polled
+  every cycle (`uart0_check_often=1`) so that typed lines arrive whole;
+- the simulator's command line on a local TCP port (`-Z`), prompt a NUL
+  byte (`-P`), no colours (`-b`);
+- optionally a VCD recording of port 1 (the step/direction/pen port) and of
+  PSW.3, the register-bank bit that only the step interrupt sets: it is 1
+  from the interrupt's `mov psw,#0x08` to its `pop psw`.
+
+Addresses come from the linker's map (global symbols) and the relocated
+listings build/mcs51/*.rst (static symbols and instructions).
+"""
+import os
+import pty
+import re
+import select
+import shutil
+import socket
+import subprocess
+import time
+import tty
+from pathlib import Path
+
+CLOCK_HZ = 11_059_200
+CYCLE_PS = 12 * 10**12 / CLOCK_HZ          # one machine cycle in picoseconds
+
+FIRMWARE = Path(__file__).resolve().parent.parent
+
+
+def s51_path():
+    return shutil.which("s51")
+
+
+class Symbols:
+    """Addresses of the image's symbols: globals from the .map, statics and
+    code labels from the .rst listings."""
+
+    def __init__(self, base):
+        base = Path(base)
+        self.addr = {}
+        for line in open(base.with_suffix(".map")):
+            m = re.match(r"\s*(?:C:\s+)?([0-9A-F]{8})\s+(_\w+)\s+\w+\s*$", line)
+            if m:
+                self.addr.setdefault(m.group(2), int(m.group(1), 16))
+        self.rst = {}
+        for rst in sorted((base.parent / "mcs51").glob("*.rst")):
+            self.rst[rst.stem] = rst.read_text(errors="replace").splitlines()
+            for line in self.rst[rst.stem]:
+                m = re.match(r"\s+([0-9A-F]{6})\s+\d+\s+(_\w+):\s*$", line)
+                if m:
+                    self.addr.setdefault(m.group(2), int(m.group(1), 16))
+
+    def __getitem__(self, name):
+        return self.addr[name]
+
+    def instructions(self, module, label, mnemonic):
+        """Addresses of the instructions `mnemonic` in function `label` of module."""
+        out, inside = [], False
+        for line in self.rst[module]:
+            m = re.match(r"\s+([0-9A-F]{6})\s+\d+\s+(_\w+):\s*$", line)
+            if m:
+                inside = m.group(2) == label
+                continue
+            m = re.match(r"\s+([0-9A-F]{6})\s+(?:[0-9A-F]{2}\s)+\s*\[\d+\]\s+\d+\s+(\w+)", line)
+            if inside and m and m.group(2) == mnemonic:
+                out.append(int(m.group(1), 16))
+        return out
+
+
+class Sim:
+    """One simulated board.  Use as a context manager."""
+
+    def __init__(self, base=FIRMWARE / "build" / "plotter", vcd=None, timeout=30.0):
+        self.base = Path(base)
+        self.sym = Symbols(self.base)
+        self.timeout = timeout
+        self._pty = []
+        self.rx_master, rx_name = self._raw_pty()     # we write, the board's UART reads
+        self.tx_master, tx_name = self._raw_pty()     # the board's UART writes, we read
+        sock = socket.socket()
+        sock.bind(("127.0.0.1", 0))
+        port = sock.getsockname()[1]
+        sock.close()
+        self.proc = subprocess.Popen(
+            ["s51", "-b", "-P", "-t", "8052", "-X", "11.0592M",
+             "-S", f"in={rx_name},out={tx_name}", "-Z", str(port),
+             str(self.base.with_suffix(".ihx"))],
+            stdin=subprocess.DEVNULL, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+        deadline = time.time() + 10
+        while True:
+            try:
+                self.sock = socket.create_connection(("127.0.0.1", port))
+                break
+            except OSError:
+                if time.time() > deadline or self.proc.poll() is not None:
+                    raise RuntimeError("s51 did not open its command port")
+                time.sleep(0.05)
+        self.sock.setsockopt(socket.IPPROTO_TCP, socket.TCP_NODELAY, 1)
+        self._con = b""
+        self._ser = b""
+        self.running = False
+        self._until_con(rb"details\.\r\n\x00")
+        self.cmd("expr uart0_check_often=1")
+        self.vcd = vcd
+        if vcd:
+            self.cmd(f'set hw vcd[0] output "{vcd}"')
+            self.cmd("set hw vcd[0] add sfr[0x90]")
+            self.cmd("set hw vcd[0] add sfr[0xd0].3")
+
+    def _raw_pty(self):
+        master, slave = pty.openpty()
+        tty.setraw(master)
+        tty.setraw(slave)
+        self._pty += [master, slave]
+        return master, os.ttyname(slave)
+
+    # --- simulator command line ------------------------------------------
+    def _until_con(self, pattern, timeout=None):
+        deadline = time.time() + (timeout or self.timeout)
+        while True:
+            m = re.search(pattern, self._con, re.S)
+            if m:
+                out, self._con = self._con[:m.end()], self._con[m.end():]
+                return out.decode(errors="replace")
+            if time.time() > deadline:
+                raise TimeoutError(f"s51 console: waiting for {pattern!r}, got {self._con[-300:]!r}")
+            r, _, _ = select.select([self.sock], [], [], 0.02)
+            if r:
+                data = self.sock.recv(65536)
+                if not data:
+                    raise RuntimeError("s51 closed its command port")
+                self._con += data
+
+    def cmd(self, text, timeout=None):
+        """A command while the simulation is stopped; its output."""
+        assert not self.running, "stop the simulation first"
+        self.sock.sendall(text.encode() + b"\n")
+        return self._until_con(rb"\x00", timeout)
+
+    def go(self):
+        """Let the simulation run (in the background)."""
+        self.sock.sendall(b"go\n")
+        self._until_con(rb"Simulation started[^\n]*\n")
+        self.running = True
+
+    def stop(self):
+        self.sock.sendall(b"stop\n")
+        out = self._until_con(rb"Stop at.*?\x00")
+        self.running = False
+        return out
+
+    def run_to(self, addr, timeout=None):
+        """Run until the instruction at addr is about to execute."""
+        self.cmd(f"tbreak 0x{addr:x}")
+        self.sock.sendall(b"go\n")
+        self.running = True
+        out = self._until_con(rb"Stop at.*?\x00", timeout)
+        self.running = False
+        return out
+
+    def ticks(self):
+        """Clock ticks since reset (12 per machine cycle)."""
+        m = re.search(r"\((\d+) clks\)", self.cmd("state"))
+        return int(m.group(1))
+
+    def max_sp(self):
+        m = re.search(r"Max value of stack pointer= 0x([0-9a-f]+)", self.cmd("state"))
+        return int(m.group(1), 16)
+
+    def iram(self, addr, n):
+        out = self.cmd(f"dump iram 0x{addr:x} 0x{addr + n - 1:x}")
+        data = []
+        for line in out.splitlines():
+            m = re.match(r"\s*0x[0-9a-f]+((?:\s+[0-9a-f]{2})+)", line)
+            if m:
+                data += [int(v, 16) for v in m.group(1).split()]
+        return bytes(data[:n])
+
+    def set_iram(self, addr, data):
+        self.cmd(f"set memory iram 0x{addr:x} " + " ".join(f"0x{b:02x}" for b in data))
+
+    def int32(self, name):
+        return int.from_bytes(self.iram(self.sym[name], 4), "little", signed=True)
+
+    def vcd_start(self):
+        self.cmd("set hw vcd[0] start")
+
+    def vcd_stop(self):
+        self.cmd("set hw vcd[0] stop")
+
+    # --- the board's UART --------------------------------------------------
+    def write(self, data):
+        os.write(self.rx_master, data)
+
+    def read_until(self, pattern, timeout=None):
+        """Serial output up to and including the first match of pattern."""
+        deadline = time.time() + (timeout or self.timeout)
+        while True:
+            m = re.search(pattern, self._ser, re.S)
+            if m:
+                out, self._ser = self._ser[:m.end()], self._ser[m.end():]
+                return out
+            if time.time() > deadline:
+                raise TimeoutError(f"serial: waiting for {pattern!r}, got {self._ser[-300:]!r}")
+            r, _, _ = select.select([self.tx_master], [], [], 0.02)
+            if r:
+                self._ser += os.read(self.tx_master, 4096)
+
+    def line(self, text, timeout=None):
+        """Send one command line, return the reply line (without CR LF)."""
+        self.write(text.encode() + b"\n")
+        return self.read_until(rb"(?:ok|err|rs)[^\r\n]*\r\n", timeout).decode().strip().splitlines()[-1]
+
+    def close(self):
+        try:
+            self.sock.sendall(b"quit\n")
+        except OSError:
+            pass
+        try:
+            self.proc.wait(2)
+        except subprocess.TimeoutExpired:
+            self.proc.kill()
+            self.proc.wait()
+        self.sock.close()
+        for fd in self._pty:
+            os.close(fd)
+
+    def __enter__(self):
+        return self
+
+    def __exit__(self, *exc):
+        self.close()
+
+
+def read_vcd(path):
+    """{signal name: [(time in ps, value as int), ...]} of a uCsim VCD file."""
+    ids, events, t = {}, {}, 0
+    with open(path) as f:
+        for line in f:
+            line = line.strip()
+            if line.startswith("$var"):
+                parts = line.split()
+                ids[parts[3]] = parts[4]
+                events[parts[4]] = []
+            elif line.startswith("#"):
+                t = int(line[1:])
+            elif line.startswith("b"):
+                value, ident = line[1:].split()
+                if "x" not in value:
+                    events[ids[ident]].append((t, int(value, 2)))
+            elif line and line[0] in "01" and line[1:] in ids:
+                events[ids[line[1:]]].append((t, int(line[0])))
+    return events
+
+
+def cycles(ps):
+    return ps / CYCLE_PS
