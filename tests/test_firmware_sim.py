@@ -1,0 +1,189 @@
+"""The real 8051 image (firmware/build/plotter.ihx) in the s51 simulator.
+
+The simulated STC89C52RC (8052 core, 11.0592 MHz) gets typed command lines
+through its UART, like a terminal would send them.  Checked:
+
+- the banner and the replies (`$I`, `ok Q...`, the `?` status report);
+- the position, read back from the board's RAM (pos_x, pos_y) and from the
+  status report, exactly;
+- the step and direction pulses on port 1, recorded as a VCD trace: the path
+  rebuilt from them ends where it should, and step by step it is the path of
+  the host build of the same core (libplotter_core.so) for the same
+  commands, pen changes included;
+- their timing: every interval between two pulses is the host core's
+  (the timer schedule of the 8051 HAL) within the interrupt latency, and the
+  intervals add up to the host core's total exactly.
+
+Skipped when s51 (Debian package sdcc-ucsim) is missing, except on CI
+(CI=true), where that is a failure.
+"""
+import os
+import re
+import shutil
+import subprocess
+import sys
+
+import pytest
+
+from firmware_build import FIRMWARE, host_library
+from plotter_bridge.firmware_core import FirmwareCore
+
+sys.path.insert(0, str(FIRMWARE / "tools"))
+import s51sim  # noqa: E402
+
+X_STEP, X_DIR, Y_STEP, Y_DIR, PEN = 0x01, 0x02, 0x04, 0x08, 0x10   # core/config.h, P1
+STATUS = re.compile(r"<(\w+) X(-?\d+) Y(-?\d+) Q(\d+) N(\d+) S(\d+) P(\d+) U(\d+) A(\d+)>")
+REPLY = rb"(?:ok|err|rs)[^\r\n]*\r\n"
+
+# Line, pen down, a clockwise quarter circle (centre 100 steps to the right of
+# its start), pen up: typed lines, so the board answers with "ok Q<free>".
+COMMANDS = ["L 300 -200", "P 1", "C 100 100 100 0", "P 0"]
+END = (400, -100)
+
+
+@pytest.fixture(scope="module")
+def image():
+    if shutil.which("s51") is None:
+        reason = "s51 (Debian package sdcc-ucsim) is not installed"
+        if os.environ.get("CI") == "true":
+            pytest.fail(reason + " - required on CI", pytrace=False)
+        pytest.skip(reason)
+    subprocess.run(["make", "-s", "-C", str(FIRMWARE), "build/plotter.ihx"], check=True)
+    return FIRMWARE / "build" / "plotter"
+
+
+def host_steps():
+    """(dx, dy, cycles since the previous step, pen) per step of the host core."""
+    core = FirmwareCore(host_library())
+    try:
+        core.transmitted()
+        for command in COMMANDS:
+            core.receive(command.encode() + b"\n")
+            core.poll(3)
+        pen = False
+        steps = []
+        since = 0
+        # the same loop as core_run_steps, watching the pen between ticks
+        while True:
+            core.poll()
+            if not core.timer_running():
+                break
+            since += core.period()
+            x0, y0 = core.position
+            core.tick()
+            x1, y1 = core.position
+            if (x1, y1) != (x0, y0):          # the pulse leaves first, then the port
+                steps.append((x1 - x0, y1 - y0, since))     # takes a new pen state
+                since = 0
+            if core.pen_down != pen:
+                pen = core.pen_down
+                steps.append(("pen", pen))
+        return steps, core.position
+    finally:
+        core.close()
+
+
+def board_steps(vcd_path):
+    """The same list, rebuilt from the port 1 trace of the 8051."""
+    events = s51sim.read_vcd(vcd_path)["P1"]
+    out, prev, last = [], None, None
+    for t, v in events:
+        if prev is not None:
+            if (v ^ prev) & PEN:
+                out.append(("pen", bool(v & PEN)))
+            rising = v & ~prev & (X_STEP | Y_STEP)
+            if rising:
+                assert rising in (X_STEP, Y_STEP), "one axis per step"
+                dx = (-1 if v & X_DIR else 1) if rising == X_STEP else 0
+                dy = (-1 if v & Y_DIR else 1) if rising == Y_STEP else 0
+                cycles = None if last is None else s51sim.cycles(t - last)
+                out.append((dx, dy, cycles))
+                last = t
+        prev = v
+    return out
+
+
+@pytest.fixture(scope="module")
+def run(image, tmp_path_factory):
+    vcd = str(tmp_path_factory.mktemp("s51") / "p1.vcd")
+    with s51sim.Sim(image, vcd=vcd) as sim:
+        sim.go()
+        banner = sim.read_until(rb"\r\n").decode()
+        sim.stop()
+        sim.vcd_start()
+        sim.go()
+        sim.write(b"$I\n")
+        info = sim.read_until(rb"\]").decode() + sim.read_until(REPLY).decode()
+        replies = []
+        for command in COMMANDS:
+            sim.write(command.encode() + b"\n")
+            replies.append(sim.read_until(REPLY).decode().strip())
+        status = None
+        for _ in range(100):                      # until the board is idle again
+            sim.write(b"?")
+            status = STATUS.search(sim.read_until(rb">[^\n]*\n").decode())
+            if status.group(1) == "Idle":
+                break
+        sim.stop()
+        sim.vcd_stop()
+        ram = (sim.int32("_pos_x"), sim.int32("_pos_y"))
+        max_sp = sim.max_sp()
+        stack_start = int(re.search(r"Stack starts at: 0x([0-9a-fA-F]+)",
+                                    (FIRMWARE / "build" / "plotter.mem").read_text()).group(1), 16)
+    return dict(banner=banner, info=info, replies=replies, status=status, ram=ram,
+                vcd=vcd, max_sp=max_sp, stack_start=stack_start)
+
+
+def test_banner_and_replies(run):
+    assert run["banner"].startswith("PLOTTER 8051 1.0 ready")
+    assert re.match(r"\[PLOTTER 8051 1\.0 Q6 B64 R250 T12850 A100000\]\s*(\*\d+)?\r\nok Q6\b", run["info"])
+    assert run["replies"][0].startswith("ok Q5")
+    for reply in run["replies"]:
+        assert re.match(r"ok Q[0-6]\b", reply), reply
+
+
+def test_position_exact_in_ram_and_status(run):
+    assert run["ram"] == END
+    s = run["status"]
+    assert s.group(1) == "Idle"
+    assert (int(s.group(2)), int(s.group(3))) == END
+    assert s.group(7) == "0"                      # pen up again
+    assert s.group(9) == "0"                      # no alarm
+
+
+def test_pulses_trace_the_host_cores_path(run):
+    want, end = host_steps()
+    assert end == END
+    got = board_steps(run["vcd"])
+    strip = [(s[0], s[1]) if s[0] != "pen" else s for s in got]
+    assert strip == [(s[0], s[1]) if s[0] != "pen" else s for s in want]
+    x = y = 0
+    for s in got:
+        if s[0] != "pen":
+            x, y = x + s[0], y + s[1]
+    assert (x, y) == END
+
+
+def test_pulse_timing_matches_the_schedule(run):
+    """Each interval between pulses is the host core's within the interrupt
+    latency: a few cycles for the instruction the interrupt waits for, up to
+    ~25 when a status request masks interrupts to copy the position.  And
+    the intervals add up to the host's total within the same bound: the
+    timer reload of the 8051 HAL (TIMER_STOPPED_CYCLES) keeps the schedule
+    without drift over the whole run."""
+    want, _ = host_steps()
+    got = board_steps(run["vcd"])
+    w = [s[2] for s in want if s[0] != "pen"][1:]
+    g = [s[2] for s in got if s[0] != "pen"][1:]
+    assert len(w) == len(g)
+    deviations = sorted(abs(a - b) for a, b in zip(g, w))
+    assert deviations[-1] <= 32, deviations[-1]
+    assert deviations[len(deviations) // 2] <= 3          # typically 0..5
+    assert abs(sum(g) - sum(w)) <= 32
+
+
+def test_stack_stays_within_its_reserve(run):
+    """tools/size.py keeps 40 bytes for the stack; the deepest use here must
+    fit well inside (s51 reports the highest stack pointer)."""
+    used = run["max_sp"] - run["stack_start"] + 1
+    assert used <= 40, used
