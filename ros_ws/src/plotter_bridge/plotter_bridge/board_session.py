@@ -227,6 +227,8 @@ class BoardSession:
 
     def _on_status(self, st: Status) -> None:
         self.status_count += 1
+        if not self._synced:
+            self._sync(st)
         if self.connection != CONNECTED:
             self.connection = CONNECTED
             job = self.job

@@ -1,4 +1,4 @@
-"""`plotter stream`, `plotter draw` and `plotter watch`: the node graph from the command line.
+"""`plotter stream`, `draw`, `resume`, `jobs` and `watch`: the node graph from the command line.
 
 ROS is imported only when one of these runs, so `plotter check` stays quick.
 A program is parsed before any node starts, and checked against the work
@@ -27,8 +27,43 @@ def _connection_args(p: argparse.ArgumentParser) -> None:
                    help="motor steps per mm (default 80)")
     p.add_argument("--trace", metavar="OUT.csv", default="",
                    help="with --mock: write every step (t_s,x_steps,y_steps)")
+    p.add_argument("--faults", default="", metavar="SPEC",
+                   help="with --mock: faults on the serial line and board events, e.g. "
+                        "drop=0.01,corrupt=0.01,dup=0.001,delay=0.001,seed=1,unplug_at=STEPS,unplug_for=S,"
+                        "reset_at=STEPS")
+    p.add_argument("--seq-log", metavar="OUT.csv", default="",
+                   help="with --mock: sequence numbers of the commands the board started")
+    p.add_argument("--journal", metavar="DIR", default="",
+                   help="job journal directory (default $ROS_HOME/plotter_journal)")
     p.add_argument("--namespace", default="/plotter", help="ROS namespace of the nodes (default /plotter)")
     p.add_argument("--quiet", action="store_true", help="no progress bar")
+
+
+def _graph_options(args: argparse.Namespace):
+    """GraphOptions from the connection arguments; ValueError for bad ones."""
+    from .faults import parse_faults
+    from .local_graph import GraphOptions
+    faults = parse_faults(args.faults)
+    if (args.faults or args.seq_log) and not args.mock:
+        raise ValueError("--faults and --seq-log need --mock")
+    return GraphOptions(port=args.port or "", mock=args.mock, baud=args.baud,
+                        steps_per_mm=args.steps_per_mm, trace=args.trace,
+                        namespace=args.namespace, faults=faults, seq_log=args.seq_log,
+                        journal_dir=args.journal)
+
+
+def reliability_report(graph) -> str:
+    """What the mock board's faults did and how the link coped, one line."""
+    stats = graph.bridge.session.link.stats if graph.bridge.session.link else None
+    c = graph.board.fault_counts()
+    line = (f"faults: {c.dropped} dropped, {c.corrupted} corrupted, {c.duplicated} duplicated, "
+            f"{c.delayed} delayed of {c.bytes} bytes; {graph.board.unplugs} unplugs, "
+            f"{graph.board.resets} resets")
+    if stats:
+        line += (f"; link: {stats.lines_sent} lines sent, {stats.retransmissions} retransmitted, "
+                 f"{stats.resend_requests} resend requests, {stats.timeouts} time-outs, "
+                 f"{stats.garbled_replies} damaged replies, {stats.reconnects} reconnects")
+    return line
 
 
 class ProgressBar:
@@ -58,23 +93,32 @@ def run_program_text(text: str, name: str, args: argparse.Namespace,
                      out: TextIO = sys.stdout, err: TextIO = sys.stderr) -> int:
     from .gcode import parse
     try:
-        parse(text)           # syntax first; the work area is checked from the pen's real position
+        if not getattr(args, "resume_id", ""):
+            parse(text)       # syntax first; the work area is checked from the pen's real position
     except GCodeError as exc:
         err.write(f"{name}:{exc}\n")
         return EXIT_BAD_PROGRAM
-    from .local_graph import GraphOptions, LocalGraph
-    options = GraphOptions(port=args.port or "", mock=args.mock, baud=args.baud,
-                           steps_per_mm=args.steps_per_mm, trace=args.trace,
-                           namespace=args.namespace)
+    from .local_graph import LocalGraph
+    try:
+        options = _graph_options(args)
+    except ValueError as exc:
+        err.write(f"{exc}\n")
+        return EXIT_BAD_PROGRAM
     bar = None if args.quiet else ProgressBar(text.count("\n") + 1, err)
     with LocalGraph(options) as graph:
-        result = graph.run_program(text, name, progress=bar)
+        result = graph.run_program(text, name, progress=bar, resume=getattr(args, "resume_id", ""))
+        report = reliability_report(graph) if options.mock and (args.faults or args.seq_log) else ""
     if bar:
         bar.close(result.success)
+    if report:
+        err.write(report + "\n")
     if result.success:
         out.write(f"{name}: done, pen at X{result.x_mm:.3f} Y{result.y_mm:.3f} mm\n")
         return EXIT_OK
     err.write(f"{name}: {result.message}\n")
+    if result.job_id:
+        err.write(f"to finish it from where it stopped: plotter resume {result.job_id} "
+                  f"{'--mock' if args.mock else '--port ' + args.port}\n")
     return EXIT_FAILED
 
 
@@ -142,6 +186,41 @@ def run_draw(args: argparse.Namespace) -> int:
 
 
 register(Command("draw", "draw one of the built-in shapes", _configure_draw, run_draw))
+
+
+# ---------------------------------------------------------------- resume, jobs
+
+def _configure_resume(p: argparse.ArgumentParser) -> None:
+    p.add_argument("resume_id", metavar="JOB_ID", help="id of an interrupted job (see plotter jobs)")
+    _connection_args(p)
+
+
+def run_resume(args: argparse.Namespace) -> int:
+    return run_program_text("", f"job {args.resume_id}", args)
+
+
+register(Command("resume", "finish an interrupted job from its last completed line (from the journal)",
+                 _configure_resume, run_resume))
+
+
+def _configure_jobs(p: argparse.ArgumentParser) -> None:
+    p.add_argument("--journal", metavar="DIR", default="",
+                   help="job journal directory (default $ROS_HOME/plotter_journal)")
+
+
+def run_jobs(args: argparse.Namespace, out: TextIO = sys.stdout) -> int:
+    from .journal import Journal, default_journal_dir
+    journal = Journal(args.journal or default_journal_dir())
+    for job_id, prog, mtime in journal.jobs():
+        record, _ = journal.load(job_id)
+        when = time.strftime("%Y-%m-%d %H:%M:%S", time.localtime(mtime))
+        note = f"resumed as {prog.resumed_by}" if prog.resumed_by else prog.message
+        out.write(f"{job_id}  {when}  {prog.state:<11} {prog.completed:>6}/{len(record.commands):<6} "
+                  f"{record.name}  {note}\n")
+    return EXIT_OK
+
+
+register(Command("jobs", "list the journalled jobs, newest first", _configure_jobs, run_jobs))
 
 
 # ---------------------------------------------------------------- watch

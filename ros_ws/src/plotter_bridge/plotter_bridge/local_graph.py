@@ -6,8 +6,10 @@ the streamer's `run_program` action exactly as a separate client would.
 """
 from __future__ import annotations
 
+import tempfile
 import threading
-from dataclasses import dataclass
+from dataclasses import dataclass, field
+from pathlib import Path
 from typing import Callable, Optional
 
 import rclpy
@@ -18,6 +20,7 @@ from rclpy.parameter import Parameter
 
 from plotter_interfaces.action import RunProgram
 
+from .faults import FaultSpec
 from .gcode_streamer_node import GCodeStreamer
 from .mock_board import MockBoard, MockBoardConfig
 from .serial_bridge_node import SerialBridge
@@ -33,6 +36,9 @@ class GraphOptions:
     steps_per_mm: float = 80.0
     trace: str = ""                # mock board step trace (CSV)
     namespace: str = "/plotter"
+    faults: FaultSpec = field(default_factory=FaultSpec)   # mock board: faults on its serial line
+    seq_log: str = ""              # mock board: sequence numbers of the commands started
+    journal_dir: str = ""          # streamer's job journal ('' = the default)
 
 
 @dataclass
@@ -41,6 +47,7 @@ class ProgramResult:
     message: str
     x_mm: float
     y_mm: float
+    job_id: str = ""
 
 
 class LocalGraph:
@@ -50,18 +57,25 @@ class LocalGraph:
         self._context = Context()
         rclpy.init(context=self._context, args=[])
         port = options.port
+        self._tmp: Optional[tempfile.TemporaryDirectory] = None
         if options.mock:
-            self.board = MockBoard(MockBoardConfig(baud=options.baud, trace=options.trace))
+            # A fixed path (symlink) to the pty, so that an unplugged mock board comes back at it.
+            self._tmp = tempfile.TemporaryDirectory(prefix="plotter-mock-")
+            port = str(Path(self._tmp.name) / "board")
+            self.board = MockBoard(MockBoardConfig(baud=options.baud, trace=options.trace, link=port,
+                                                   seq_log=options.seq_log, faults=options.faults))
             self.board.start()
-            port = self.board.port_path
         if not port:
             raise ValueError("no port given (use --port PORT or --mock)")
         spm = Parameter("steps_per_mm", value=float(options.steps_per_mm))
         self.bridge = SerialBridge(namespace=options.namespace, context=self._context,
                                    parameter_overrides=[Parameter("port", value=port),
                                                         Parameter("baud", value=int(options.baud)), spm])
+        streamer_params = [spm]
+        if options.journal_dir:
+            streamer_params.append(Parameter("journal_dir", value=options.journal_dir))
         self.streamer = GCodeStreamer(namespace=options.namespace, context=self._context,
-                                      parameter_overrides=[spm])
+                                      parameter_overrides=streamer_params)
         self.client_node = rclpy.create_node("plotter_cli", namespace=options.namespace,
                                              context=self._context)
         self._client = ActionClient(self.client_node, RunProgram, "run_program")
@@ -75,11 +89,11 @@ class LocalGraph:
 
     def run_program(self, text: str, name: str = "program",
                     progress: Optional[ProgressCallback] = None,
-                    timeout: float = 24 * 3600.0) -> ProgramResult:
+                    timeout: float = 24 * 3600.0, resume: str = "") -> ProgramResult:
         if not self._client.wait_for_server(timeout_sec=10.0):
             return ProgramResult(False, "gcode streamer not available", 0.0, 0.0)
         goal = RunProgram.Goal()
-        goal.program, goal.name = text, name
+        goal.program, goal.name, goal.resume = text, name, resume
         done = threading.Event()
         send = self._client.send_goal_async(
             goal, feedback_callback=(lambda fb: progress(fb.feedback)) if progress else None)
@@ -101,7 +115,7 @@ class LocalGraph:
             finished.wait(10.0)
             raise
         r = res.result().result
-        return ProgramResult(r.success, r.message, r.x_mm, r.y_mm)
+        return ProgramResult(r.success, r.message, r.x_mm, r.y_mm, r.job_id)
 
     def close(self) -> None:
         self._client.destroy()
@@ -110,6 +124,8 @@ class LocalGraph:
             node.destroy_node()
         if self.board is not None:
             self.board.stop()
+        if self._tmp is not None:
+            self._tmp.cleanup()
         rclpy.try_shutdown(context=self._context)
 
     def __enter__(self) -> "LocalGraph":

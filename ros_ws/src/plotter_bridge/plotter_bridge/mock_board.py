@@ -4,7 +4,17 @@ The firmware's own core (host build of firmware/core) runs here: bytes from
 the pty reach its receive interrupt at the configured baud rate, its main
 loop parses them, and its step interrupt fires on the schedule its timer
 asks for, in real time.  Every step can be written to a trace file
-(`t_s,x_steps,y_steps`, board time in seconds, absolute positions).
+(`t_s,x_steps,y_steps`, board time in seconds, absolute positions), and
+every queued command the board starts to a sequence log (`seq`, the wire
+sequence number, one a line; `reset` where the board restarted), so a test
+can check that each command of a job ran exactly once.
+
+Faults (faults.FaultSpec) are injected on the byte stream between the pty
+and the core, both ways: dropped, corrupted, duplicated and delayed bytes;
+`unplug()` closes the pty and makes a new one at the same link path after a
+while, the core running on meanwhile; `power_cycle()` resets the core
+(banner, position 0, queue empty).  Both also fire after a number of steps
+(`unplug_at`, `reset_at`).
 
 No ROS here: mock_board_node.py wraps it as a node, `plotter --mock` runs
 it in a thread.
@@ -21,6 +31,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import IO, Optional
 
+from .faults import FaultCounts, FaultSpec, FaultyChannel
 from .firmware_core import CYCLES_PER_S, FirmwareCore
 
 
@@ -30,32 +41,87 @@ class MockBoardConfig:
     link: str = ""                 # also make a symlink to the pty here
     trace: str = ""                # CSV of every step
     speed: float = 1.0             # board time per wall time (tests may run faster)
+    seq_log: str = ""              # file of the sequence numbers of the commands started
+    faults: FaultSpec = FaultSpec()
 
 
 class MockBoard:
     def __init__(self, config: MockBoardConfig, core: Optional[FirmwareCore] = None) -> None:
         self.config = config
         self.core = core or FirmwareCore()
+        self._master = self._slave = -1
+        self.port_path = ""
+        self._open_pty()
+        self._trace: Optional[IO[str]] = None
+        if config.trace:
+            self._trace = open(config.trace, "w", buffering=1 << 16)
+            self._trace.write("t_s,x_steps,y_steps\n")
+            self._trace.flush()
+        self._seq_file: Optional[IO[str]] = None
+        if config.seq_log:
+            self._seq_file = open(config.seq_log, "w", buffering=1 << 16)
+            self._seq_file.write("seq\n")
+            self._seq_file.flush()
+        self._seq_seen = 0
+        self._trace_dirty = False
+        self._pending_rx = bytearray()
+        self._stop = threading.Event()
+        self._thread: Optional[threading.Thread] = None
+        self._lock = threading.Lock()           # events asked for by other threads
+        self._want_unplug: Optional[float] = None
+        self._want_reset = False
+        self._replug_at: Optional[float] = None
+        self.down = FaultyChannel(config.faults, 0)    # pty -> core
+        self.up = FaultyChannel(config.faults, 1)      # core -> pty
+        self.board_time = 0.0          # seconds on the board's clock
+        self.steps = 0
+        self.unplugs = 0
+        self.resets = 0
+
+    def _open_pty(self) -> None:
         self._master, self._slave = pty.openpty()
         tty.setraw(self._slave)
         tty.setraw(self._master)
         os.set_blocking(self._master, False)
         self.port_path = os.ttyname(self._slave)
-        if config.link:
-            link = Path(config.link)
-            if link.is_symlink() or link.exists():
-                link.unlink()
-            link.symlink_to(self.port_path)
-        self._trace: Optional[IO[str]] = None
-        if config.trace:
-            self._trace = open(config.trace, "w", buffering=1 << 16)
-            self._trace.write("t_s,x_steps,y_steps\n")
-        self._trace_dirty = False
-        self._pending_rx = bytearray()
-        self._stop = threading.Event()
-        self._thread: Optional[threading.Thread] = None
-        self.board_time = 0.0          # seconds on the board's clock
-        self.steps = 0
+        if self.config.link:
+            link = Path(self.config.link)
+            tmp = link.with_name(link.name + ".new")
+            if tmp.is_symlink() or tmp.exists():
+                tmp.unlink()
+            tmp.symlink_to(self.port_path)
+            tmp.replace(link)
+
+    def _close_pty(self) -> None:
+        for fd in (self._master, self._slave):
+            try:
+                os.close(fd)
+            except OSError:
+                pass
+        self._master = self._slave = -1
+        if self.config.link:
+            try:
+                Path(self.config.link).unlink()
+            except OSError:
+                pass
+
+    @property
+    def connected(self) -> bool:
+        return self._master >= 0
+
+    def fault_counts(self) -> FaultCounts:
+        return self.down.counts.add(self.up.counts)
+
+    # --- simulated events (any thread) ----------------------------------------------
+    def unplug(self, seconds: float) -> None:
+        """The port vanishes for `seconds`, then comes back at the same link path."""
+        with self._lock:
+            self._want_unplug = max(0.0, seconds)
+
+    def power_cycle(self) -> None:
+        """The board resets: banner, position 0, queue and numbering cleared."""
+        with self._lock:
+            self._want_reset = True
 
     # --- lifecycle ----------------------------------------------------------
     def start(self) -> None:
@@ -72,16 +138,11 @@ class MockBoard:
         if self._trace:
             self._trace.close()
             self._trace = None
-        for fd in (self._master, self._slave):
-            try:
-                os.close(fd)
-            except OSError:
-                pass
-        if self.config.link:
-            try:
-                Path(self.config.link).unlink()
-            except OSError:
-                pass
+        if self._seq_file:
+            self._sync_seq_log()
+            self._seq_file.close()
+            self._seq_file = None
+        self._close_pty()
         self.core.close()
 
     # --- the simulation loop ---------------------------------------------------
@@ -89,10 +150,13 @@ class MockBoard:
         wall0 = time.monotonic()
         last = 0.0
         rx_credit = 0.0
+        last_seq_sync = 0.0
         while not self._stop.is_set():
             now = (time.monotonic() - wall0) * self.config.speed
             dt, last = now - last, now
-            self._read_pty()
+            self._events(now)
+            self._read_pty(now)
+            self._pending_rx += self.down.receive(now)
             # The UART delivers one byte per 10 bit times.
             rx_credit = min(rx_credit + dt * self.config.baud / 10, 256)
             n = min(int(rx_credit), len(self._pending_rx))
@@ -102,11 +166,55 @@ class MockBoard:
                 rx_credit -= n
             self.core.poll(4)
             self._run_steps(now)
-            self._write_pty()
-            if not self.core.timer_running() and not self._pending_rx:
+            self._write_pty(now)
+            if self._seq_file and (now - last_seq_sync > 0.05 or not self.core.timer_running()):
+                self._sync_seq_log()
+                last_seq_sync = now
+            if not self.core.timer_running() and not self._pending_rx and self.connected:
                 select.select([self._master], [], [], 0.002)
             elif self.core.timer_running() and self.board_time > now:
                 time.sleep(min(0.001, (self.board_time - now) / self.config.speed))
+            elif not self.connected:
+                time.sleep(0.002)
+
+    def _events(self, now: float) -> None:
+        faults = self.config.faults
+        with self._lock:
+            unplug, self._want_unplug = self._want_unplug, None
+            reset, self._want_reset = self._want_reset, False
+        if faults.unplug_at and self.steps >= faults.unplug_at and not self.unplugs:
+            unplug = faults.unplug_for
+        if faults.reset_at and self.steps >= faults.reset_at and not self.resets:
+            reset = True
+        if unplug is not None and self.connected:
+            self.unplugs += 1
+            self._close_pty()
+            self._pending_rx.clear()
+            self.down.clear()
+            self.up.clear()
+            self._replug_at = now + unplug * self.config.speed
+        if self._replug_at is not None and now >= self._replug_at:
+            self._replug_at = None
+            self._open_pty()
+        if reset:
+            self.resets += 1
+            self._sync_seq_log()
+            if self._seq_file:
+                self._seq_file.write("reset\n")
+            self.core.reset()
+            self._seq_seen = 0
+            self._pending_rx.clear()
+
+    def _sync_seq_log(self) -> None:
+        """Append the commands started since the last call to the log file."""
+        if not self._seq_file:
+            return
+        log = self.core.seq_log()
+        new = log[self._seq_seen:]
+        if new:
+            self._seq_file.write("".join(f"{s}\n" for s in new))
+            self._seq_seen = len(log)
+        self._seq_file.flush()
 
     def _run_steps(self, now: float) -> None:
         core = self.core
@@ -133,17 +241,22 @@ class MockBoard:
             if budget % 64 == 0:
                 core.poll()
 
-    def _read_pty(self) -> None:
+    def _read_pty(self, now: float) -> None:
+        if not self.connected:
+            return
         try:
             data = os.read(self._master, 4096)
         except (BlockingIOError, OSError):
             return
-        self._pending_rx += data
+        self.down.send(data, now)
 
-    def _write_pty(self) -> None:
+    def _write_pty(self, now: float) -> None:
         out = self.core.transmitted()
-        if out:
+        if out and self.connected:
+            self.up.send(out, now)
+        data = self.up.receive(now)
+        if data and self.connected:
             try:
-                os.write(self._master, out)
+                os.write(self._master, data)
             except OSError:
                 pass

@@ -4,7 +4,14 @@ Creates a pseudo-terminal, prints its path and publishes it on `mock_port`
 (std_msgs/String, transient local); behind it the firmware's own core runs in
 real time (see mock_board.py).  Parameters: `link` (also make a symlink to
 the pty there, so a bridge can be started with port:=<link>), `trace` (CSV
-of every step), `baud` (byte rate of the simulated UART).
+of every step), `seq_log` (file of the sequence numbers of the commands the
+board started), `baud` (byte rate of the simulated UART), `faults` (faults on
+the serial line and board events, e.g. `drop=0.01,corrupt=0.01,dup=0.001,
+unplug_at=4000,unplug_for=2,reset_at=9000`; see faults.py).
+
+Services `~/unplug` (the pty vanishes for `unplug_for` seconds and comes back
+at the same link path) and `~/power_cycle` (the board resets) simulate the
+same events on demand.
 """
 from __future__ import annotations
 
@@ -14,7 +21,9 @@ from rclpy.node import Node
 from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
 from rcl_interfaces.msg import ParameterDescriptor
 from std_msgs.msg import String
+from std_srvs.srv import Trigger
 
+from .faults import parse_faults
 from .mock_board import MockBoard, MockBoardConfig
 
 DEFAULT_NAMESPACE = "/plotter"
@@ -27,22 +36,53 @@ class MockBoardNode(Node):
         self.declare_parameter("link", "", d(description="path of a symlink to the pty ('' = none)"))
         self.declare_parameter("trace", "", d(description="CSV file of every step: t_s,x_steps,y_steps ('' = none)"))
         self.declare_parameter("baud", 115200, d(description="simulated UART baud rate"))
+        self.declare_parameter("seq_log", "", d(description="file of the sequence numbers of the commands "
+                                                            "the board started, one a line ('' = none)"))
+        self.declare_parameter("faults", "", d(description="serial faults and board events, e.g. "
+                                                           "drop=0.01,corrupt=0.01,dup=0.001,delay=0.001,"
+                                                           "seed=1,unplug_at=STEPS,unplug_for=S,reset_at=STEPS"))
+        self.declare_parameter("unplug_for", 2.0, d(description="seconds the port stays away on ~/unplug"))
         config = MockBoardConfig(baud=int(self.get_parameter("baud").value),
                                  link=str(self.get_parameter("link").value),
-                                 trace=str(self.get_parameter("trace").value))
+                                 trace=str(self.get_parameter("trace").value),
+                                 seq_log=str(self.get_parameter("seq_log").value),
+                                 faults=parse_faults(str(self.get_parameter("faults").value)))
         if config.baud <= 0:
             raise ValueError("baud must be positive")
         self.board = MockBoard(config)
         latched = QoSProfile(depth=1, reliability=ReliabilityPolicy.RELIABLE,
                              durability=DurabilityPolicy.TRANSIENT_LOCAL)
         self.create_publisher(String, "mock_port", latched).publish(String(data=self.board.port_path))
+        self.create_service(Trigger, "~/unplug", self._srv_unplug)
+        self.create_service(Trigger, "~/power_cycle", self._srv_power_cycle)
         self.board.start()
+        if config.faults != type(config.faults)():
+            self.get_logger().info(f"faults: {config.faults}")
         where = f" (link {config.link})" if config.link else ""
         print(f"mock board on {self.board.port_path}{where}", flush=True)
         self.get_logger().info(f"mock board on {self.board.port_path}{where}")
 
+    def _srv_unplug(self, request, response):
+        seconds = float(self.get_parameter("unplug_for").value)
+        if not (0.0 <= seconds <= 3600.0):
+            response.success, response.message = False, f"unplug_for {seconds} outside 0..3600 s"
+            return response
+        self.board.unplug(seconds)
+        response.success, response.message = True, f"port away for {seconds:g} s"
+        return response
+
+    def _srv_power_cycle(self, request, response):
+        self.board.power_cycle()
+        response.success, response.message = True, "board reset"
+        return response
+
     def destroy_node(self) -> None:
         self.board.stop()
+        c = self.board.fault_counts()
+        if c.total or self.board.unplugs or self.board.resets:
+            print(f"mock board faults: {c.dropped} dropped, {c.corrupted} corrupted, {c.duplicated} "
+                  f"duplicated, {c.delayed} delayed of {c.bytes} bytes; {self.board.unplugs} unplugs, "
+                  f"{self.board.resets} resets", flush=True)
         super().destroy_node()
 
 
@@ -54,6 +94,9 @@ def main(args=None) -> None:
         rclpy.spin(node)
     except (KeyboardInterrupt, ExternalShutdownException):
         pass
+    except ValueError as exc:
+        rclpy.logging.get_logger("mock_board").fatal(f"bad parameter: {exc}")
+        raise SystemExit(1)
     finally:
         if node is not None:
             node.destroy_node()

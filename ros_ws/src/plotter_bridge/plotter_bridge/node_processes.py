@@ -68,24 +68,39 @@ class PlotterGraph:
     """mock_board + serial_bridge + gcode_streamer + shape_server, each a process."""
 
     def __init__(self, domain: int, workdir: Path, namespace: str = "/plotter",
-                 bridge_args=(), board_args=()) -> None:
+                 bridge_args=(), board_args=(), streamer_args=()) -> None:
         self.domain = domain
         self.link = workdir / "board.pty"
         self.trace = workdir / "trace.csv"
-        ns = ("-r", f"__ns:={namespace}")
+        self.seq_log = workdir / "seq_log.csv"
+        self.journal = workdir / "journal"
+        self._ns = ("-r", f"__ns:={namespace}")
+        ns = self._ns
         self.board = NodeProcess("plotter_bridge.mock_board_node", domain,
-                                 ns + ("-p", f"link:={self.link}", "-p", f"trace:={self.trace}") + tuple(board_args))
+                                 ns + ("-p", f"link:={self.link}", "-p", f"trace:={self.trace}",
+                                       "-p", f"seq_log:={self.seq_log}") + tuple(board_args))
         wait_until(self.link.exists, 20, "the mock board's pty link")
         self.bridge = NodeProcess("plotter_bridge.serial_bridge_node", domain,
                                   ns + ("-p", f"port:={self.link}") + tuple(bridge_args))
-        self.streamer = NodeProcess("plotter_bridge.gcode_streamer_node", domain, ns)
+        self._streamer_args = ns + ("-p", f"journal_dir:={self.journal}") + tuple(streamer_args)
+        self.streamer = NodeProcess("plotter_bridge.gcode_streamer_node", domain, self._streamer_args)
         self.shapes = NodeProcess("plotter_shapes.shape_server_node", domain, ns)
         self.processes = [self.shapes, self.streamer, self.bridge, self.board]
+        self.dead: List[NodeProcess] = []
+
+    def restart_streamer(self) -> None:
+        """A new gcode_streamer process (after the old one died), same journal."""
+        old = self.streamer
+        self.streamer = NodeProcess("plotter_bridge.gcode_streamer_node", self.domain, self._streamer_args)
+        self.processes[self.processes.index(old)] = self.streamer
+        self.dead.append(old)
 
     def outputs(self) -> str:
         return "\n".join(f"--- {p.module}\n{p.output()}" for p in self.processes if not p.log.closed)
 
     def close(self) -> List[int]:
+        for p in self.dead:
+            p.close()
         codes = []
         for p in self.processes:
             try:
@@ -93,6 +108,14 @@ class PlotterGraph:
             finally:
                 p.close()
         return codes
+
+
+def read_seq_log(path: Path) -> List[object]:
+    """The mock board's sequence log: ints, and "reset" where the board restarted."""
+    with open(path) as f:
+        rows = f.read().split()
+    assert rows[0] == "seq"
+    return [r if r == "reset" else int(r) for r in rows[1:]]
 
 
 def read_trace(path: Path) -> List[tuple]:

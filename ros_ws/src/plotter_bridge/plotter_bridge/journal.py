@@ -1,0 +1,170 @@
+"""The streamer's journal: each job's board commands and how far the board got.
+
+A job is written before anything is sent (`<id>.job.json`: name, board
+commands with their source lines, where the pen started) and its progress is
+kept beside it (`<id>.progress.json`: commands the board finished, state,
+message), each file replaced atomically.  If the streamer dies, the job
+stops (the bridge's lease runs out) and a later `resume` continues it from
+the first command not finished: the pen travels, raised, to where that
+command starts if it is not already there, and the rest runs.
+
+Pure functions and a small file store; no ROS.
+"""
+from __future__ import annotations
+
+import json
+import os
+import re
+from dataclasses import asdict, dataclass, field
+from pathlib import Path
+from typing import List, Optional, Tuple
+
+from .commands import MAX_DELTA, MAX_RATE, MIN_RATE
+
+RUNNING, DONE, INTERRUPTED = "running", "done", "interrupted"
+_ID = re.compile(r"^[0-9a-f]{32}$")
+
+
+def default_journal_dir() -> Path:
+    home = os.environ.get("ROS_HOME") or os.path.join(os.path.expanduser("~"), ".ros")
+    return Path(home) / "plotter_journal"
+
+
+@dataclass
+class JobRecord:
+    job_id: str
+    name: str
+    commands: List[str]
+    lines: List[int]
+    start: Tuple[int, int]            # pen position in steps when the job began
+    start_pen: bool = False
+    rapid_rate: int = MAX_RATE        # steps/s for the travel of a resume
+
+
+@dataclass
+class Progress:
+    completed: int = 0                # commands the board finished
+    state: str = RUNNING
+    message: str = ""
+    resumed_by: str = ""              # the job that continued this one
+
+    @property
+    def resumable(self) -> bool:
+        return self.state == INTERRUPTED and not self.resumed_by
+
+
+@dataclass
+class Journal:
+    directory: Path
+    _last: dict = field(default_factory=dict)
+
+    def __post_init__(self) -> None:
+        self.directory = Path(self.directory)
+
+    def _path(self, job_id: str, kind: str) -> Path:
+        if not _ID.match(job_id):
+            raise ValueError(f"not a job id: {job_id!r}")
+        return self.directory / f"{job_id}.{kind}.json"
+
+    def _write(self, path: Path, data: dict) -> None:
+        self.directory.mkdir(parents=True, exist_ok=True)
+        tmp = path.with_suffix(".tmp")
+        with open(tmp, "w") as f:
+            json.dump(data, f)
+            f.flush()
+            os.fsync(f.fileno())
+        os.replace(tmp, path)
+
+    def create(self, record: JobRecord) -> None:
+        self._write(self._path(record.job_id, "job"), asdict(record))
+        self.update(record.job_id, Progress())
+
+    def update(self, job_id: str, progress: Progress) -> None:
+        if self._last.get(job_id) == progress:
+            return
+        self._write(self._path(job_id, "progress"), asdict(progress))
+        self._last[job_id] = Progress(**asdict(progress))
+
+    def load(self, job_id: str) -> Tuple[JobRecord, Progress]:
+        """The job and its progress; KeyError if the journal does not hold it."""
+        try:
+            with open(self._path(job_id, "job")) as f:
+                rec = json.load(f)
+            with open(self._path(job_id, "progress")) as f:
+                prog = json.load(f)
+        except (OSError, ValueError) as exc:
+            raise KeyError(f"job {job_id} not in the journal {self.directory}: {exc}") from None
+        rec["start"] = tuple(rec["start"])
+        return JobRecord(**rec), Progress(**prog)
+
+    def jobs(self) -> List[Tuple[str, Progress, float]]:
+        """(id, progress, modification time) of every job, newest first."""
+        out = []
+        for path in self.directory.glob("*.progress.json"):
+            job_id = path.name.split(".")[0]
+            try:
+                _, prog = self.load(job_id)
+            except KeyError:
+                continue
+            out.append((job_id, prog, path.stat().st_mtime))
+        return sorted(out, key=lambda t: -t[2])
+
+
+def _moves(text: str) -> Tuple[int, int]:
+    parts = text.split()
+    if parts and parts[0] in ("L", "C", "A"):
+        return int(parts[1]), int(parts[2])
+    return 0, 0
+
+
+def _pen(text: str) -> Optional[bool]:
+    parts = text.split()
+    if parts and parts[0] == "P":
+        return parts[1] == "1"
+    return None
+
+
+def state_before(record: JobRecord, index: int) -> Tuple[Tuple[int, int], bool]:
+    """Where the pen is, and whether it is down, before command `index`."""
+    x, y = record.start
+    pen = record.start_pen
+    for text in record.commands[:index]:
+        dx, dy = _moves(text)
+        x, y = x + dx, y + dy
+        p = _pen(text)
+        if p is not None:
+            pen = p
+    return (x, y), pen
+
+
+def travel(dx: int, dy: int, rate: int) -> List[str]:
+    """A straight move split into pieces the firmware accepts."""
+    n = max(1, -(-max(abs(dx), abs(dy)) // MAX_DELTA))
+    out, done_x, done_y = [], 0, 0
+    for k in range(1, n + 1):
+        tx, ty = dx * k // n, dy * k // n
+        out.append(f"L {tx - done_x} {ty - done_y} {rate} 0")
+        done_x, done_y = tx, ty
+    return out
+
+
+def resume_commands(record: JobRecord, completed: int, pen_at: Tuple[int, int],
+                    pen_down: bool) -> Tuple[List[str], List[int]]:
+    """Board commands that finish the job from command `completed` on, for a
+    pen now at `pen_at` (steps, down or not)."""
+    if completed >= len(record.commands):
+        return [], []
+    (x, y), pen = state_before(record, completed)
+    line = record.lines[completed]
+    rate = max(MIN_RATE, min(MAX_RATE, record.rapid_rate))
+    head: List[str] = []
+    if (x, y) != tuple(pen_at):
+        if pen_down:
+            head.append("P 0")
+        head += travel(x - pen_at[0], y - pen_at[1], rate)
+        if pen:
+            head.append("P 1")
+    elif pen != pen_down:
+        head.append("P 1" if pen else "P 0")
+    commands = head + record.commands[completed:]
+    return commands, [line] * len(head) + record.lines[completed:]

@@ -1,0 +1,332 @@
+"""Reliability of the node graph, each node its own process, on the mock board.
+
+The port vanishes and comes back, the board resets, the e-stop is pressed, the
+streamer is killed, and bad input arrives on every ROS interface: each ends in
+the documented state, with no extra motion.  The mock board's sequence log
+(parameter `seq_log`) shows every command it started, so "exactly once" is
+checked against the board, not against what the nodes believe.
+"""
+import math
+import os
+import random
+import signal
+import threading
+import time
+
+import pytest
+
+from ros_graph import PlotterGraph, Probe, read_trace, wait_until
+from plotter_bridge.node_processes import read_seq_log
+
+pytestmark = pytest.mark.ros
+
+STEPS_PER_MM = 80.0
+
+
+@pytest.fixture(autouse=True)
+def node_logs_on_failure(request, graph):
+    """The nodes' output, when a test of this module fails."""
+    failed = request.session.testsfailed
+    yield
+    if request.session.testsfailed > failed:
+        print(graph.outputs())
+
+
+@pytest.fixture(scope="module")
+def graph(tmp_path_factory):
+    from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
+    from plotter_interfaces.msg import BoardState
+
+    domain = random.SystemRandom().randint(110, 200)
+    g = PlotterGraph(domain, tmp_path_factory.mktemp("reliability"),
+                     board_args=("-p", "unplug_for:=1.5"),
+                     bridge_args=("-p", "reconnect_timeout:=20.0"),
+                     streamer_args=("-p", "lease:=1.0"))
+    probe = Probe(domain)
+    g.probe = probe
+    g.states = []
+    g.lock = threading.Lock()
+
+    def on_state(m):
+        with g.lock:
+            g.states.append((time.monotonic(), m))
+
+    latched = QoSProfile(depth=1, reliability=ReliabilityPolicy.RELIABLE,
+                         durability=DurabilityPolicy.TRANSIENT_LOCAL)
+    probe.node.create_subscription(BoardState, "state", on_state, latched)
+    try:
+        wait_until(lambda: any(s.state == BoardState.IDLE for _, s in g.states), 60, "IDLE")
+        yield g
+    except BaseException:
+        print(g.outputs())
+        raise
+    finally:
+        probe.close()
+        codes = g.close()
+    assert all(c == 0 for c in codes), f"nodes did not exit cleanly on Ctrl-C: {codes}\n"
+
+
+def latest(g):
+    with g.lock:
+        return g.states[-1][1]
+
+
+def states_since(g, t0):
+    with g.lock:
+        return [s for t, s in g.states if t >= t0]
+
+
+def call(g, name, timeout=20):
+    from std_srvs.srv import Trigger
+    client = g.probe.node.create_client(Trigger, name)
+    assert client.wait_for_service(timeout_sec=timeout), name
+    future = client.call_async(Trigger.Request())
+    wait_until(future.done, timeout, f"the {name} service")
+    g.probe.node.destroy_client(client)
+    return future.result()
+
+
+class Goal:
+    """A run_program goal sent from the probe."""
+
+    def __init__(self, g, program="", resume="", name="test"):
+        from rclpy.action import ActionClient
+        from plotter_interfaces.action import RunProgram
+        self.client = ActionClient(g.probe.node, RunProgram, "run_program")
+        assert self.client.wait_for_server(timeout_sec=30)
+        self.feedback = []
+        send = self.client.send_goal_async(RunProgram.Goal(program=program, name=name, resume=resume),
+                                           feedback_callback=lambda fb: self.feedback.append(fb.feedback))
+        wait_until(send.done, 30, "goal acceptance")
+        self.handle = send.result()
+        assert self.handle.accepted
+        self.future = self.handle.get_result_async()
+
+    def result(self, timeout=120):
+        wait_until(self.future.done, timeout, "the program's result")
+        self.client.destroy()
+        return self.future.result()
+
+
+def zigzag(n, y0=60.0, feed=2400):
+    """A pen-down zig-zag of n lines (about n * 0.2 s at this feed)."""
+    lines = ["G21 G90", "G0 X40 Y%.1f" % y0, "M3", f"F{feed}"]
+    for k in range(n):
+        lines.append(f"G1 X{40 + 8 * ((k + 1) % 2)} Y{y0 + 0.5 * (k + 1):.1f}")
+    lines += ["M5", "M2"]
+    return "\n".join(lines) + "\n"
+
+
+def program_commands(text, start_steps):
+    from plotter_bridge.program import StreamerConfig, compile_program
+    return compile_program(text, StreamerConfig(), start_steps)
+
+
+def end_of(commands, start):
+    x, y = start
+    for c in commands:
+        if c.is_motion:
+            x, y = x + c.args[0], y + c.args[1]
+    return x, y
+
+
+def new_seq(g, before):
+    return read_seq_log(g.seq_log)[before:]
+
+
+def consecutive(seqs):
+    return all(isinstance(a, int) and isinstance(b, int) and b == (a + 1) % 65536
+               for a, b in zip(seqs, seqs[1:]))
+
+
+def wait_running(g, t0):
+    from plotter_interfaces.msg import BoardState
+    wait_until(lambda: any(s.state == BoardState.RUNNING for s in states_since(g, t0)), 30, "RUNNING")
+
+
+def wait_board_rest(g, settle=0.6):
+    """The trace stops growing (the board stepped nothing for `settle` seconds)."""
+    n = -1
+    while True:
+        m = len(read_trace(g.trace))
+        if m == n:
+            return m
+        n = m
+        time.sleep(settle)
+
+
+# --- bad input on every interface ------------------------------------------------------
+
+def test_bad_inputs_are_refused_and_no_node_dies(graph):
+    from action_msgs.msg import GoalStatus
+    from rclpy.action import ActionClient
+    from std_msgs.msg import String
+    from plotter_interfaces.action import StreamCommands
+    from plotter_interfaces.msg import ShapeGoal
+
+    errors = {"shape_error": [], "program_error": []}
+    subs = [graph.probe.node.create_subscription(String, topic, lambda m, seen=seen: seen.append(m.data), 50)
+            for topic, seen in errors.items()]
+    shape_pub = graph.probe.node.create_publisher(ShapeGoal, "shape", 50)
+    program_pub = graph.probe.node.create_publisher(String, "program", 50)
+    wait_until(lambda: shape_pub.get_subscription_count() > 0 and program_pub.get_subscription_count() > 0
+               and all(sub.get_publisher_count() > 0 for sub in subs), 30, "the topics to connect")
+    before = len(read_trace(graph.trace))
+    bad_shapes = [ShapeGoal(shape="hexagon", size=40.0), ShapeGoal(shape="star", size=math.nan),
+                  ShapeGoal(shape="star", size=math.inf), ShapeGoal(shape="circle", size=-5.0),
+                  ShapeGoal(shape="circle", size=1e12), ShapeGoal(shape="star", x=math.nan, y=3.0),
+                  ShapeGoal(shape="star", feed=-1.0), ShapeGoal(shape="line", x=10.0, y=10.0, x2=1e9, y2=10.0),
+                  ShapeGoal(shape="\x00" * 1000)]
+    for goal in bad_shapes:
+        shape_pub.publish(goal)
+    bad_programs = ["G1 X10 Q5\n", "G0 X1000\n", "\x00\xff garbage", "G2 X10 I0 J0 F100\n",
+                    "G1 X" + "9" * 5000 + "\n", "(" * 100000, "G0 X1e400\n"]
+    for text in bad_programs:
+        program_pub.publish(String(data=text))
+    try:
+        wait_until(lambda: len(errors["shape_error"]) >= len(bad_shapes), 30, "a reason for every bad shape")
+        wait_until(lambda: len(errors["program_error"]) >= len(bad_programs), 60,
+                   "a reason for every bad program")
+    finally:
+        print(errors)
+    assert any("line 1" in e for e in errors["program_error"])
+
+    # run_program goals: each fails with a message naming the reason.
+    for kw, word in ((dict(program="G1 X10 Y10 F100\nG1 X500\n"), "line 2"),
+                     (dict(program="G0 X1\n", name="x" * 500), "name"),
+                     (dict(resume="not-a-job"), "not a job id"),
+                     (dict(resume="0" * 32), "not in the journal")):
+        res = Goal(graph, **kw).result()
+        assert res.status == GoalStatus.STATUS_ABORTED and word in res.result.message, res.result.message
+
+    # stream_commands goals the bridge must not take: refused outright.
+    client = ActionClient(graph.probe.node, StreamCommands, "stream_commands")
+    assert client.wait_for_server(timeout_sec=20)
+    for goal in (StreamCommands.Goal(commands=[]), StreamCommands.Goal(commands=["L 1 1", "N5 L 1 1 *3"]),
+                 StreamCommands.Goal(commands=["\x18"]), StreamCommands.Goal(commands=["L 1 1"], lines=[1, 2]),
+                 StreamCommands.Goal(commands=["L 1 1"], lease=math.nan)):
+        send = client.send_goal_async(goal)
+        wait_until(send.done, 20, "goal response")
+        assert not send.result().accepted
+    client.destroy()
+
+    time.sleep(0.5)
+    assert len(read_trace(graph.trace)) == before, "nothing moved"
+    for p in graph.processes:
+        assert p.alive(), f"{p.module} died:\n{p.output()}"
+    res = Goal(graph, program="G21 G90\nG0 X20 Y20\nM2\n").result()
+    assert res.result.success, res.result.message
+
+
+# --- the port vanishes --------------------------------------------------------------------
+
+def test_port_unplugged_and_back_mid_job_resumes_exactly(graph):
+    from plotter_interfaces.msg import BoardState
+    st = latest(graph)
+    start = (st.x_steps, st.y_steps)
+    text = zigzag(40)
+    commands = program_commands(text, start)
+    seq_before = len(read_seq_log(graph.seq_log))
+    t0 = time.monotonic()
+    goal = Goal(graph, text)
+    wait_running(graph, t0)
+    time.sleep(1.0)
+    assert call(graph, "mock_board/unplug").success
+    res = goal.result()
+    assert res.result.success, res.result.message
+    seen = states_since(graph, t0)
+    assert any(s.state == BoardState.DISCONNECTED for s in seen), "the bridge said it was disconnected"
+    assert any("resumed" in s.last_error for s in seen)
+    end = end_of(commands, start)
+    assert read_trace(graph.trace)[-1][1:] == end, "final position exact to the step"
+    seqs = new_seq(graph, seq_before)
+    assert len(seqs) == sum(1 for c in commands if c.verb != "L" or c.args != (0, 0))
+    assert consecutive(seqs), f"every command once, in order: {seqs}"
+
+
+# --- emergency stop ------------------------------------------------------------------------
+
+def test_estop_mid_job_stops_and_nothing_queued_runs_after(graph):
+    from action_msgs.msg import GoalStatus
+    from plotter_interfaces.msg import BoardState
+    t0 = time.monotonic()
+    goal = Goal(graph, zigzag(30, y0=100.0))
+    wait_running(graph, t0)
+    time.sleep(0.8)
+    assert call(graph, "estop").success
+    res = goal.result()
+    assert res.status == GoalStatus.STATUS_ABORTED and "emergency stop" in res.result.message
+    wait_until(lambda: latest(graph).state == BoardState.ALARM, 10, "ALARM")
+    n = wait_board_rest(graph)
+    seqs = read_seq_log(graph.seq_log)
+    time.sleep(1.5)
+    assert len(read_trace(graph.trace)) == n, "moved after the emergency stop"
+    assert read_seq_log(graph.seq_log) == seqs, "a command queued before the stop ran after it"
+    refused = Goal(graph, "G21 G90\nG1 X50 Y50 F1000\nM2\n").result()
+    assert not refused.result.success and "alarm" in refused.result.message
+    assert call(graph, "reset").success
+    wait_until(lambda: latest(graph).state == BoardState.IDLE, 10, "IDLE after reset")
+    assert latest(graph).position_known, "an emergency stop keeps the position"
+
+
+# --- the streamer dies; the job is resumed from the journal ----------------------------------
+
+def test_streamer_killed_mid_job_then_resumed_from_the_journal(graph):
+    from plotter_bridge.journal import Journal
+    st = latest(graph)
+    start = (st.x_steps, st.y_steps)
+    text = zigzag(50, y0=120.0)
+    commands = program_commands(text, start)
+    seq_before = len(read_seq_log(graph.seq_log))
+    t0 = time.monotonic()
+    Goal(graph, text)
+    wait_running(graph, t0)
+    time.sleep(1.5)
+    os.kill(graph.streamer.proc.pid, signal.SIGKILL)
+    graph.streamer.proc.wait()
+    wait_board_rest(graph, settle=1.5)                 # the lease runs out; the board finishes its queue
+    stopped = len(new_seq(graph, seq_before))
+    assert 0 < stopped < len(commands), "the job stopped part-way"
+    jobs = Journal(graph.journal).jobs()
+    job_id, progress, _ = jobs[0]
+    assert progress.state == "running" and progress.completed <= stopped
+
+    # The dead streamer stays in the ROS graph until its DDS lease ends: wait for the new one.
+    lease_publishers = graph.probe.node.count_publishers("/plotter/job_lease")
+    graph.restart_streamer()
+    wait_until(lambda: graph.probe.node.count_publishers("/plotter/job_lease") > lease_publishers, 30,
+               "the new streamer")
+    time.sleep(1.0)
+    res = Goal(graph, resume=job_id).result()
+    assert res.result.success, res.result.message
+    assert read_trace(graph.trace)[-1][1:] == end_of(commands, start)
+    seqs = new_seq(graph, seq_before)
+    assert len(seqs) == len(commands), "nothing of the job ran twice, nothing was left out"
+    _, old = Journal(graph.journal).load(job_id)
+    assert old.resumed_by == res.result.job_id
+
+
+# --- the board resets ---------------------------------------------------------------------------
+
+def test_board_reset_mid_job_aborts_and_position_is_unknown_until_set_origin(graph):
+    from action_msgs.msg import GoalStatus
+    t0 = time.monotonic()
+    goal = Goal(graph, zigzag(30, y0=150.0))
+    wait_running(graph, t0)
+    time.sleep(0.8)
+    assert call(graph, "mock_board/power_cycle").success
+    res = goal.result()
+    assert res.status == GoalStatus.STATUS_ABORTED
+    assert "board reset" in res.result.message and "position is unknown" in res.result.message
+    wait_until(lambda: not latest(graph).position_known, 10, "position_known false")
+    n = wait_board_rest(graph)
+    time.sleep(1.0)
+    assert len(read_trace(graph.trace)) == n
+    log = read_seq_log(graph.seq_log)
+    assert log[-1] == "reset", "nothing ran after the reset"
+    refused = Goal(graph, "G21 G90\nG1 X5 Y5 F1000\nM2\n").result()
+    assert not refused.result.success and "set_origin" in refused.result.message
+    assert call(graph, "set_origin").success
+    wait_until(lambda: latest(graph).position_known, 10, "position_known after set_origin")
+    res = Goal(graph, "G21 G90\nG0 X5 Y5\nM2\n").result()
+    assert res.result.success, res.result.message
