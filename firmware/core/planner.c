@@ -77,11 +77,11 @@ static uint8_t commit(void)
  * it: the braking distance to that level. */
 static uint8_t level_for_rate(uint16_t rate)
 {
-    RAMP_ROM uint16_t *rates = ramp_rate[setting[SET_SHAPE]];
     RAMP_ROM uint8_t *holds = &ramp_hold[setting[SET_SHAPE] ? RAMP_LEVELS : 0];
     uint8_t k = 0;
     uint16_t sum = (uint16_t)((uint8_t)holds[0] * (uint8_t)setting[SET_ACCEL]);
-    while (k < RAMP_LEVELS - 1 && rates[k + 1] <= rate) {
+    while (k < RAMP_LEVELS - 1 &&
+           (setting[SET_SHAPE] ? ramp_rate_exp[k + 1] : RAMP_RATE_TRAP(k + 1)) <= rate) {
         k++;
         sum += (uint16_t)((uint8_t)holds[k] * (uint8_t)setting[SET_ACCEL]);
     }
@@ -92,7 +92,7 @@ static uint8_t level_for_rate(uint16_t rate)
 /* Ramp fields shared by lines and arcs, then into the queue. */
 static uint8_t plan_motion(void)
 {
-    uint16_t top = ramp_rate[setting[SET_SHAPE]][RAMP_LEVELS - 1];
+    uint16_t top = RAMP_TOP(setting[SET_SHAPE]);
     if (plan_arg[PLAN_FEED] == 0) plan_arg[PLAN_FEED] = setting[SET_FEED];
     if (plan_arg[PLAN_FEED] < FEED_MIN) plan_arg[PLAN_FEED] = FEED_MIN;
     if (plan_arg[PLAN_FEED] > top) plan_arg[PLAN_FEED] = top;

@@ -139,12 +139,10 @@ void protocol_init(void)
 
 static void report_status(void)
 {
-    static IDATA int32_t pos[2];
-    static IDATA uint16_t seq;
+    static IDATA int32_t pos[2];     /* X and Y of one moment */
     HAL_CRITICAL_BEGIN();
     pos[0] = POS_READ(pos_x);
     pos[1] = POS_READ(pos_y);
-    seq = st_seg.seq;
     HAL_CRITICAL_END();
     out('<');
     put_str(alarm_code ? "Alarm" : st_hold ? "Hold" : st_running ? "Run" : "Idle");
@@ -159,7 +157,7 @@ static void report_status(void)
     put_tag('N');
     put_u16(expected_seq);
     put_tag('S');
-    put_u16(seq);
+    put_u16(st_seg.seq);
     put_tag('P');
     put_u16((st_port & BIT_PEN) ? 1 : 0);
     put_tag('U');
@@ -307,10 +305,9 @@ static uint8_t cmd_setting(void)
         return E_OK;
     }
     if (*cur == 'I' && cur + 1 == end) {
-        put_str("[" FW_NAME " " FW_VERSION " Q" XSTR(QUEUE_SIZE) " B" XSTR(RX_SIZE) " R");
-        put_u16(ramp_rate[setting[SET_SHAPE]][0]);
-        put_tag('T');
-        put_u16(ramp_rate[setting[SET_SHAPE]][RAMP_LEVELS - 1]);
+        put_str("[" FW_NAME " " FW_VERSION " Q" XSTR(QUEUE_SIZE) " B" XSTR(RX_SIZE)
+                " R" XSTR(RAMP_R0) " T");     /* both shapes start at RAMP_R0 */
+        put_u16(RAMP_TOP(setting[SET_SHAPE]));
         put_str(" A" XSTR(RAMP_ACCEL_TRAP) "]");
         put_eol();
         return E_OK;

@@ -22,7 +22,15 @@
 extern RAMP_ROM uint8_t  ramp_period_lo[RAMP_SHAPES * RAMP_LEVELS];
 extern RAMP_ROM uint8_t  ramp_period_hi[RAMP_SHAPES * RAMP_LEVELS];
 extern RAMP_ROM uint8_t  ramp_hold[RAMP_SHAPES * RAMP_LEVELS];   /* steps per level at multiplier 1 */
-extern RAMP_ROM uint16_t ramp_rate[RAMP_SHAPES][RAMP_LEVELS];    /* steps per second */
-#define RAMP_ACCEL_TRAP 100000    /* trapezoid acceleration at divisor 1, steps/s^2 (tools/gen_ramp.py) */
+
+/* The rate of each level, steps/s: the trapezoid's rises by RAMP_DR per
+ * level from RAMP_R0 and needs no table; the exponential's is tabled. */
+#define RAMP_R0 250
+#define RAMP_DR 200
+extern RAMP_ROM uint16_t ramp_rate_exp[RAMP_LEVELS];
+#define RAMP_RATE_TRAP(level) ((uint16_t)(RAMP_R0 + (uint16_t)((uint8_t)RAMP_DR * (uint8_t)(level))))  /* MUL AB */
+#define RAMP_TOP(shape) ((shape) ? ramp_rate_exp[RAMP_LEVELS - 1] : RAMP_RATE_TRAP(RAMP_LEVELS - 1))
+
+#define RAMP_ACCEL_TRAP 100000    /* trapezoid acceleration at divisor 1, steps/s^2 */
 
 #endif

@@ -16,7 +16,8 @@ Two shapes share the mechanism and differ only in their tables:
 Per level k a table holds: the step period (machine cycles, written as
 HAL_PERIOD(p), the form the step timer adds, split into low and high bytes so
 the interrupt reads each with one instruction), the rate in steps/s (for
-looking up the level of a requested speed outside the interrupt), and the
+looking up the level of a requested speed outside the interrupt; the trapezoid's are
+a formula, core/ramp.h), and the
 steps to hold the level at the fastest acceleration.  The braking distance
 from a level is the sum of the holds below it; the planner adds them up once
 per command.
@@ -63,7 +64,7 @@ def main(out):
         "",
         f"/* trapezoid: R0={R0} DR={DR} steps/s per level, {DT_TRAP*1000:g} ms per level;",
         f"   exponential: tau={TAU*1000:.1f} ms, {DT_EXP*1000:.2f} ms per level; RMAX={RMAX} */",
-        f"#if RAMP_LEVELS != {LEVELS} || RAMP_ACCEL_TRAP != {accel}",
+        f"#if RAMP_LEVELS != {LEVELS} || RAMP_ACCEL_TRAP != {accel} || RAMP_R0 != {R0} || RAMP_DR != {DR}",
         "#error core/ramp.h does not match tools/gen_ramp.py",
         "#endif",
         "#define LO(p) ((uint8_t)HAL_PERIOD(p))",
@@ -74,8 +75,10 @@ def main(out):
         lines += [f"RAMP_ROM uint8_t {name}[RAMP_SHAPES * RAMP_LEVELS] = {{",
                   "    /* trapezoid */", rows(t["trap"][field], fmt) + ",",
                   "    /* exponential */", rows(t["exp"][field], fmt), "};"]
-    lines += ["RAMP_ROM uint16_t ramp_rate[RAMP_SHAPES][RAMP_LEVELS] = {",
-              "  {\n" + rows(t["trap"][1]) + "\n  },", "  {\n" + rows(t["exp"][1]) + "\n  },", "};"]
+    # The trapezoid's rates are RAMP_R0 + k * RAMP_DR (core/ramp.h): only the
+    # exponential's are tabled.
+    assert t["trap"][1] == [R0 + k * DR for k in range(LEVELS)]
+    lines += ["RAMP_ROM uint16_t ramp_rate_exp[RAMP_LEVELS] = {", rows(t["exp"][1]), "};"]
     text = "\n".join(lines) + "\n"
     with open(out, "w") as f:
         f.write(text)
