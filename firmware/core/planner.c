@@ -147,29 +147,34 @@ static uint8_t arc_quadrant(int16_t x, int16_t y)
     return arc_cw ? (uint8_t)(k >> 4) : (uint8_t)(k & 0x0F);
 }
 
+/* arc_t += a * b */
+static void add_product(int16_t a, int16_t b)
+{
+    arc_t += (uint32_t)((int32_t)a * b);
+}
+
 /* Adds to arc_t the steps of the staircase between point p (p[0], p[1])
  * and the point at radius arc_r on half-axis k (+X, +Y, -X, -Y = 0..3; 4:
  * the centre) bounding the point's quadrant: the staircase moves
  * monotonically, and the point lies on the axis's side of the centre. */
 static void add_axis_steps(uint8_t k, IDATA int16_t *p)
 {
-    uint16_t ax = (uint16_t)(p[0] < 0 ? -p[0] : p[0]);
-    uint16_t ay = (uint16_t)(p[1] < 0 ? -p[1] : p[1]);
-    if (k < 4) {
-        if (k & 1) {
-            ay = ay > arc_r ? ay - arc_r : arc_r - ay;
-        } else {
-            ax = ax > arc_r ? ax - arc_r : arc_r - ax;
+    uint16_t v;
+    uint8_t i;
+    for (i = 0; i < 2; i++) {          /* x, then y */
+        v = (uint16_t)(p[i] < 0 ? -p[i] : p[i]);
+        if (k < 4 && (k & 1) == i) {    /* the coordinate along the axis */
+            v = v > arc_r ? v - arc_r : arc_r - v;
         }
+        arc_t += v;
     }
-    arc_t += ax;
-    arc_t += ay;
 }
 
-/* arc_t += a * b */
-static void add_product(int16_t a, int16_t b)
+/* arc_t += p[0]^2 + p[1]^2 */
+static void add_squares(IDATA int16_t *p)
 {
-    arc_t += (uint32_t)((int32_t)a * b);
+    add_product(p[0], p[0]);
+    add_product(p[1], p[1]);
 }
 
 /* Start and end relative to the centre: (-i, -j) and (dx - i, dy - j);
@@ -194,23 +199,21 @@ static uint8_t arc_points(void)
  * Same quadrant: the differences do not overflow. */
 static void arc_final_quadrant(void)
 {
-    int16_t e = plan.c - plan.a;
+    IDATA int16_t *p = &plan.a;         /* start x, y, end x, y */
+    uint8_t i, move = MV_XP;
+    int16_t e;
     plan.dirs = 0;
-    if (e < 0) {
-        plan.dirs = MV_XN;
-        e = -e;
-    } else if (e) {
-        plan.dirs = MV_XP;
+    arc_t = 0;
+    for (i = 0; i < 2; i++, move = MV_YP) {
+        e = p[i + 2] - p[i];
+        if (e < 0) {
+            plan.dirs |= move << 1;         /* MV_XN, MV_YN */
+            e = -e;
+        } else if (e) {
+            plan.dirs |= move;
+        }
+        arc_t += (uint16_t)e;
     }
-    arc_t = (uint16_t)e;
-    e = plan.d - plan.b;
-    if (e < 0) {
-        plan.dirs |= MV_YN;
-        e = -e;
-    } else if (e) {
-        plan.dirs |= MV_YP;
-    }
-    arc_t += (uint16_t)e;
 }
 
 uint8_t planner_arc(uint8_t clockwise)
@@ -220,14 +223,12 @@ uint8_t planner_arc(uint8_t clockwise)
     arc_cw = clockwise ? 1 : 0;
     if (arc_points()) return E_RANGE;
     arc_t = 0;
-    add_product(plan.a, plan.a);            /* R^2, at most 2 * 32767^2 */
-    add_product(plan.b, plan.b);
+    add_squares(&plan.a);                   /* R^2, at most 2 * 32767^2 */
     arc_sqrt();
     if (arc_r == 0) return E_ARC;           /* the centre is the start point */
     if (arc_r > 32767) return E_RANGE;
     arc_t = 0 - arc_t;
-    add_product(plan.c, plan.c);            /* minus the end's squared radius */
-    add_product(plan.d, plan.d);
+    add_squares(&plan.c);                   /* minus the end's squared radius */
     if ((int32_t)arc_t < 0) arc_t = 0 - arc_t;
     if (arc_t > 2UL * arc_r + 1) return E_ARC;   /* end more than a step off the circle */
 
