@@ -69,7 +69,7 @@ class SimRig:
 
     def connect(self) -> None:
         s = self.session
-        assert self.run_until(lambda: s.connection == "connected" and s.link.outstanding == 0, 5.0)
+        assert self.run_until(lambda: s.connection == "connected" and s.link.outstanding == 0, 60.0)
 
     def start(self, commands: List[str], lease: float = 0.0) -> Job:
         job = self.session.start_job(commands, list(range(1, len(commands) + 1)), lease)
@@ -99,6 +99,7 @@ class Figures:
     exact: bool
     once_in_order: bool
     board_seconds: float
+    message: str
 
 
 def fault_run(spec: FaultSpec, segments: int = 1000, seed: int = 1, library=None) -> Figures:
@@ -113,6 +114,7 @@ def fault_run(spec: FaultSpec, segments: int = 1000, seed: int = 1, library=None
         return Figures(str(spec), segments, injected, stats.retransmissions, stats.resend_requests,
                        stats.timeouts, stats.garbled_replies,
                        done and job.result.success, rig.core.position == end,
-                       rig.executed_of(job) == list(range(segments)), rig.port.now)
+                       rig.executed_of(job) == list(range(segments)), rig.port.now,
+                       job.result.message if job.result else "did not end")
     finally:
         rig.close()

@@ -70,6 +70,7 @@ class Job:
     status_at_last_ack: int = 0
     disconnected_at: Optional[float] = None
     result: Optional[JobResult] = None
+    expected_end: Optional[tuple] = None  # where the pen must be once every command ran
 
     @property
     def first(self) -> int:
@@ -93,6 +94,16 @@ class _Realtime:
     deadline: float
     done: bool = False
     failed: bool = False
+
+
+def displacement(commands: List[str]) -> tuple:
+    """Sum of the moves (dx, dy) of board commands, in steps."""
+    x = y = 0
+    for text in commands:
+        parts = text.split()
+        if parts and parts[0] in ("L", "C", "A") and len(parts) >= 3:
+            x, y = x + int(parts[1]), y + int(parts[2])
+    return x, y
 
 
 def started_index(first_wire: int, count: int, st: Status) -> int:
@@ -328,6 +339,9 @@ class BoardSession:
                 self._sync(st)
             job = Job([self.link.submit(c, tag=ln) for c, ln in zip(commands, lines)],
                       lease=lease, renewed_at=self.clock())
+            if st.state == "Idle" and st.queue_free == QUEUE_SIZE:
+                dx, dy = displacement(commands)
+                job.expected_end = (st.x + dx, st.y + dy)
             self.job = job
             return job
 
@@ -389,6 +403,13 @@ class BoardSession:
             return
         if (link.outstanding == 0 and self.status_count > job.status_at_last_ack
                 and st.state == "Idle" and st.queue_free == QUEUE_SIZE):
+            if job.expected_end is not None and (st.x, st.y) != job.expected_end:
+                # Every line was acknowledged, yet the pen is elsewhere: a line damaged on
+                # the way passed the checksum and ran as something else.
+                self._finish(job, False, f"the board ended at X{st.x} Y{st.y}, not at X{job.expected_end[0]} "
+                             f"Y{job.expected_end[1]}: a damaged line passed its checksum",
+                             len(job.commands), len(job.commands))
+                return
             self._finish(job, True, "done", len(job.commands), len(job.commands))
 
     def _finish(self, job: Job, success: bool, message: str, executed: int, completed: int) -> None:

@@ -1,0 +1,118 @@
+"""Pure checks behind the reliability work: the job journal and its resume,
+and the refusal of bad requests and bad programs before anything moves."""
+import math
+
+import pytest
+
+from gcode_bad_corpus import CORPUS
+from plotter_bridge.gcode_types import GCodeError
+from plotter_bridge.journal import (DONE, INTERRUPTED, Journal, JobRecord, Progress, resume_commands,
+                                    state_before, travel)
+from plotter_bridge.program import MAX_PROGRAM_BYTES, StreamerConfig, compile_program
+
+
+# --- the journal ------------------------------------------------------------------------
+
+def record():
+    return JobRecord("ab" * 16, "square", ["L 100 0 2000 0", "P 1", "L 0 100 2000 0", "L -100 0 2000 0",
+                                           "P 0", "C 20 0 10 0 2000 0"],
+                     [2, 3, 4, 5, 6, 7], (1000, 1000), False, 8000)
+
+
+def test_state_before_each_command():
+    r = record()
+    assert state_before(r, 0) == ((1000, 1000), False)
+    assert state_before(r, 2) == ((1100, 1000), True)
+    assert state_before(r, 4) == ((1000, 1100), True)
+    assert state_before(r, 6) == ((1020, 1100), False)
+
+
+def test_resume_where_the_board_stopped_adds_nothing():
+    r = record()
+    commands, lines = resume_commands(r, 3, (1100, 1100), True)
+    assert commands == r.commands[3:] and lines == r.lines[3:]
+    assert resume_commands(r, 6, (1020, 1100), False) == ([], [])
+
+
+def test_resume_from_elsewhere_travels_pen_up_then_lowers_it():
+    r = record()
+    commands, lines = resume_commands(r, 3, (1150, 1120), True)     # stopped inside command 3
+    assert commands == ["P 0", "L -50 -20 8000 0", "P 1"] + r.commands[3:]
+    assert lines == [5, 5, 5] + r.lines[3:]
+    commands, _ = resume_commands(r, 2, (1100, 1000), False)        # pen raised by a reset
+    assert commands == ["P 1"] + r.commands[2:]
+
+
+def test_travel_is_split_into_firmware_sized_pieces():
+    pieces = travel(70000, -3, 5000)
+    assert len(pieces) == 3
+    assert sum(int(p.split()[1]) for p in pieces) == 70000
+    assert sum(int(p.split()[2]) for p in pieces) == -3
+    assert all(abs(int(p.split()[1])) <= 32767 for p in pieces)
+
+
+def test_journal_round_trip_and_listing(tmp_path):
+    j = Journal(tmp_path / "j")
+    r = record()
+    j.create(r)
+    j.update(r.job_id, Progress(3, INTERRUPTED, "client gone"))
+    back, prog = j.load(r.job_id)
+    assert back == r and prog == Progress(3, INTERRUPTED, "client gone") and prog.resumable
+    j.update(r.job_id, Progress(6, DONE, "done"))
+    assert [(i, p.state) for i, p, _ in j.jobs()] == [(r.job_id, DONE)]
+    with pytest.raises(KeyError):
+        j.load("cd" * 16)
+    with pytest.raises(KeyError, match="not a job id"):
+        j.load("../../etc/passwd")
+    assert not list((tmp_path / "j").glob("*.tmp"))
+
+
+# --- requests refused before anything moves ------------------------------------------------
+
+def test_streamer_request_checks():
+    pytest.importorskip("rclpy")
+    from plotter_bridge.gcode_streamer_node import check_request
+    assert check_request("G0 X1\n", "ok", "") is None
+    assert "too large" in check_request("G0 X1\n" * (MAX_PROGRAM_BYTES // 6 + 1), "p", "")
+    assert "name" in check_request("G0 X1", "a\x00b", "")
+    assert "name" in check_request("G0 X1", "n" * 201, "")
+    assert "not a job id" in check_request("", "p", "../x")
+    assert check_request("", "p", "ab" * 16) is None
+
+
+def test_bridge_goal_checks():
+    pytest.importorskip("rclpy")
+    from plotter_bridge.serial_bridge_node import validate_goal
+    assert validate_goal(["L 1 2 3 4"], [1], 2.0) is None
+    for commands, lines, lease, word in (([], [], 0.0, "empty"), (["L 1 1", "N3 L 1 1 *5"], [], 0.0, "command 2"),
+                                         (["\x1b"], [], 0.0, "command 1"), (["$2=9"], [], 0.0, "command 1"),
+                                         (["L " + "1" * 50], [], 0.0, "command 1"),
+                                         (["L 1 1"], [1, 2], 0.0, "length"), (["L 1 1"], [], math.nan, "lease"),
+                                         (["L 1 1"], [], -1.0, "lease"), (["L 1 1"], [], math.inf, "lease")):
+        assert word in validate_goal(commands, lines, lease)
+
+
+@pytest.mark.parametrize("case", CORPUS, ids=lambda c: c.name)
+def test_bad_programs_refused_by_the_streamer_pipeline(case):
+    """compile_program is what gcode_streamer runs before streaming: every
+    malformed program of the corpus is refused whole, naming line and reason."""
+    with pytest.raises(GCodeError) as info:
+        compile_program(case.program.decode("utf-8", "surrogateescape"), StreamerConfig(), (0, 0))
+    assert info.value.line == case.line and case.keyword in info.value.message, str(info.value)
+
+
+hypothesis = pytest.importorskip("hypothesis")
+st = hypothesis.strategies
+
+
+@hypothesis.settings(max_examples=300, deadline=None)
+@hypothesis.given(st.text(alphabet="GMXYZIJRFPN0123456789.-+ ()\n;%", max_size=300),
+                  st.tuples(st.integers(-2000, 20000), st.integers(-2000, 20000)))
+def test_garbage_through_the_whole_compile_only_raises_gcode_error(text, start):
+    try:
+        commands = compile_program(text, StreamerConfig(), start)
+    except GCodeError as exc:
+        assert str(exc).startswith(f"line {exc.line}: ")
+        return
+    for c in commands:
+        assert len(c.text) <= 40 and all(abs(a) <= 32767 for a in c.args)
