@@ -20,6 +20,7 @@ bank bit only the step interrupt sets, see tools/s51sim.py).  From the trace:
 Ends with the two lines `line: N steps/s` and `arc: N steps/s`, the
 sustained rates at 11.0592 MHz.
 """
+import collections
 import re
 import statistics
 import sys
@@ -64,9 +65,8 @@ def isr_overhead(sym):
     return 2 + sum(c[0] for c in code[:entry + 1]) + sum(c[0] for c in code[exit_ + 1:])
 
 
-def measure(sim, command, wait_s, saturate):
-    """Run one command; the step intervals and ISR durations in cycles, and
-    the periods the ramp asked for (cycles), from the VCD trace."""
+def measure(sim, command, saturate):
+    """Run one command to its end with the VCD recording."""
     offs = segment_offsets(s51sim.FIRMWARE / "core" / "segment.h")
     sim.vcd_start()
     sim.go()
@@ -74,15 +74,14 @@ def measure(sim, command, wait_s, saturate):
     reply = sim.read_until(rb"(?:ok|err|rs)[^\r\n]*\r\n").decode().strip()
     if not reply.startswith("ok"):
         raise RuntimeError(f"{command!r}: {reply!r}")
+    sim.stop()
     if saturate:
         # The segment is loaded within 64 cycles of the reply; from the
         # cruise level on the interrupt then reschedules itself at once.
-        sim.stop()
         sim.set_iram(sim.sym["_st_seg"] + offs["cruise_period"], [0xFF, 0xFF])
-        sim.go()
-    import time
-    time.sleep(wait_s)
-    sim.stop()
+    # The end of the motion: the interrupt finds the queue empty and stops.
+    stop, = sim.sym.instructions("stepper", "_stepper_isr", "clr", "_st_running")
+    sim.run_to(stop, timeout=300)
     sim.vcd_stop()
 
 
@@ -119,10 +118,10 @@ def main(argv):
     results = {}
     with tempfile.TemporaryDirectory() as tmp:
         cases = [
-            ("line", "L 30000 0 12850", 2.5),
-            ("arc", "A 0 0 1500 0 12850", 4.0),
+            ("line", "L 30000 0 12850"),
+            ("arc", "A 0 0 1500 0 12850"),
         ]
-        for name, command, wait_s in cases:
+        for name, command in cases:
             for saturate in (False, True):
                 vcd = str(Path(tmp) / f"{name}{int(saturate)}.vcd")
                 with s51sim.Sim(base, vcd=vcd) as sim:
@@ -130,7 +129,7 @@ def main(argv):
                     sim.go()
                     sim.read_until(rb"ready[^\n]*\n")
                     sim.stop()
-                    measure(sim, command, wait_s, saturate)
+                    measure(sim, command, saturate)
                 intervals, isr = analyse(vcd, overhead)
                 results[(name, saturate)] = (intervals, isr)
                 label = "saturated (cruise period overwritten)" if saturate else "as commanded"
@@ -138,6 +137,8 @@ def main(argv):
                 print(f"  steps recorded      {len(intervals) + 1}")
                 print(f"  cycles per step     {summary(intervals)}")
                 print(f"  ISR cycles per step {summary(isr)}")
+                common = collections.Counter(isr).most_common(8)
+                print("  ISR cycles, most frequent: " + ", ".join(f"{c} ({n}x)" for c, n in common))
     print()
     rates = {}
     for name in ("line", "arc"):

@@ -59,16 +59,17 @@ class Symbols:
     def __getitem__(self, name):
         return self.addr[name]
 
-    def instructions(self, module, label, mnemonic):
-        """Addresses of the instructions `mnemonic` in function `label` of module."""
+    def instructions(self, module, label, mnemonic, operands=None):
+        """Addresses of the instructions `mnemonic` (with exactly these
+        operands, if given) in function `label` of module."""
         out, inside = [], False
         for line in self.rst[module]:
             m = re.match(r"\s+([0-9A-F]{6})\s+\d+\s+(_\w+):\s*$", line)
             if m:
                 inside = m.group(2) == label
                 continue
-            m = re.match(r"\s+([0-9A-F]{6})\s+(?:[0-9A-F]{2}\s)+\s*\[\d+\]\s+\d+\s+(\w+)", line)
-            if inside and m and m.group(2) == mnemonic:
+            m = re.match(r"\s+([0-9A-F]{6})\s+(?:[0-9A-F]{2}\s)+\s*\[\d+\]\s+\d+\s+(\w+)\s*([^;\s]*)", line)
+            if inside and m and m.group(2) == mnemonic and operands in (None, m.group(3)):
                 out.append(int(m.group(1), 16))
         return out
 
