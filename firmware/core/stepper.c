@@ -26,9 +26,10 @@
  *
  * This runs up to some ten thousand times a second on a 1 MIPS core, and
  * SDCC compiles it as written: hence the copy of the segment in direct RAM,
- * one-hot arc moves, flat ramp tables indexed by one byte, and a fast path
- * for the steps at cruise speed.  It must call no function (SDCC's support
- * routines included): everything it uses is a macro or INLINE. */
+ * flags as bits, one-hot arc moves, flat ramp tables indexed by one byte,
+ * and a fast path for the steps at cruise speed (tools/bench.py measures
+ * it).  It must call no function (SDCC's support routines included):
+ * everything it uses is a macro or INLINE. */
 #include "stepper.h"
 #include "planner.h"
 #include "ramp.h"
@@ -49,7 +50,7 @@ static FAST uint16_t st_level_left;   /* steps left at the current level */
 static IDATA uint16_t st_below;       /* hold steps of all the levels below this one */
 static FAST uint16_t st_brake_at;     /* braking must have begun once steps left <= this */
 static FAST uint16_t st_cruise_to;    /* cruising: nothing to do while steps left > this */
-static FAST uint8_t st_cruise_lo, st_cruise_hi;  /* cruising on a line: steps to the braking point, see CRUISE_* */
+static FAST uint8_t st_cruise_lo, st_cruise_hi;  /* cruising: steps to the braking point, see CRUISE_SET */
 static FLAG st_pulse_x, st_pulse_y;   /* step to emit at the next interrupt */
 static FLAG st_load;                  /* the segment is done: load the next one */
 static FLAG st_line;                  /* the segment is a line */
@@ -57,7 +58,6 @@ static FLAG st_cruising;              /* at the cruise level with its period set
 static FLAG st_stale;                 /* st_period is not the current level's table period */
 static FLAG st_end_x0;                /* arc: the quadrant ends on the Y axis, where x reaches 0 */
 static FLAG st_end_neg;               /* arc: ... on its negative half */
-
 
 /* Per quadrant index (4 if clockwise, plus quadrant I..IV = 0..3): the move
  * for F >= 0 in the low nibble, for F < 0 in the high nibble (seed 000
@@ -79,9 +79,10 @@ static RAMP_ROM uint8_t arc_turns[8] = {
 #define HOLD_STEPS(level) \
     ((uint16_t)((uint8_t)ramp_hold[(uint8_t)(st_lbase + (level))] * (uint8_t)setting[SET_ACCEL]))  /* MUL AB */
 
-/* Steps to the braking point while cruising on a line, n >= 1, as
- * n = 256 * st_cruise_hi + st_cruise_lo with st_cruise_lo in 1..256 (256
- * stored as 0): counting down is one `djnz` per step. */
+/* Steps to the braking point while cruising (st_seg.steps is not kept up
+ * meanwhile), n >= 1, as n = 256 * st_cruise_hi + st_cruise_lo with
+ * st_cruise_lo in 1..256 (256 stored as 0): counting down is one `djnz`
+ * per step. */
 #define CRUISE_SET(n) (st_cruise_hi = (uint8_t)((uint16_t)((n) - 1) >> 8), st_cruise_lo = (uint8_t)(n))
 #define CRUISE_LEFT() (((uint16_t)st_cruise_hi << 8) + (uint8_t)(st_cruise_lo - 1) + 1)
 
