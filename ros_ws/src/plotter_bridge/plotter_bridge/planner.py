@@ -11,6 +11,12 @@ its entry.  Collinear and gently turning commands flow through; sharp
 corners slow down just enough; the pen, dwells and the end stop at rest.
 
 Rates are in steps per second and distances in steps, as on the board.
+
+The board only keeps going while commands arrive faster than it finishes
+them; a command that ends with nothing queued behind it is braked to a stop
+(an underrun).  `cap_for_link` lowers the cruise rate of commands shorter
+in time than the serial link needs to deliver a command, so that a dense
+polyline is drawn at the link's pace without stopping at every command.
 """
 from __future__ import annotations
 
@@ -25,6 +31,32 @@ from .commands import BoardCommand, MIN_RATE
 class PlannerLimits:
     acceleration: float        # steps/s^2 the board's ramp may use
     junction_deviation: float  # steps
+
+
+WIRE_OVERHEAD = 14   # bytes around a command on the wire: "N1234 " and " *12345\n" (protocol.machine_line)
+LINK_SHARE = 0.93    # part of its byte rate a streaming link keeps busy (benchmarks/RESULTS.md)
+
+
+def wire_bytes(cmd: BoardCommand) -> int:
+    """Bytes a motion command takes on the wire, its exit rate (not planned
+    yet) counted with as many digits as its cruise rate."""
+    return len(cmd.text) - len(str(cmd.exit_rate)) + len(str(cmd.rate)) + WIRE_OVERHEAD
+
+
+def cap_for_link(commands: Sequence[BoardCommand], link_bytes_per_s: float,
+                 share: float = LINK_SHARE) -> List[BoardCommand]:
+    """Lower (in place) the cruise rate of every motion command so that it
+    lasts at least as long as the link needs to deliver a command like it
+    when `share` of the link's byte rate carries commands; returns the list.
+    The board then finishes commands no faster than they arrive instead of
+    running dry and braking to a stop at the end of each."""
+    if link_bytes_per_s <= 0:
+        return list(commands)
+    for cmd in commands:
+        if cmd.is_motion and cmd.steps > 0:
+            seconds = wire_bytes(cmd) / (link_bytes_per_s * share)
+            cmd.rate = max(MIN_RATE, min(cmd.rate, int(cmd.steps / seconds)))
+    return list(commands)
 
 
 def junction_rate(a: BoardCommand, b: BoardCommand, limits: PlannerLimits) -> float:

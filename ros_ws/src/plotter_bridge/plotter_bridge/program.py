@@ -14,7 +14,7 @@ from .gcode_limits import WorkArea, check_limits
 from .gcode_steps import to_steps
 from .gcode_types import GCodeError
 from .kinematics import HangingGeometry, hanging_motion
-from .planner import PlannerLimits, plan
+from .planner import PlannerLimits, cap_for_link, plan
 
 MAX_PROGRAM_BYTES = 4 * 1024 * 1024
 
@@ -30,6 +30,7 @@ class StreamerConfig:
     machine: str = "cartesian"         # or "hanging" (seed 003's two-string plotter)
     hanging: HangingGeometry = HangingGeometry()
     tolerance: float = 0.1             # hanging: largest pen deviation from the path, mm
+    link_baud: int = 0                 # > 0: slow commands down to what a link of this baud can feed
 
     def motor_steps_per_mm(self) -> float:
         return self.hanging.steps_per_mm if self.machine == "hanging" else self.steps_per_mm
@@ -58,4 +59,6 @@ def compile_program(text: str, config: StreamerConfig,
     else:
         commands = to_commands(to_steps(items, config.steps_per_mm),
                                cartesian_motion(config.steps_per_mm), config.rapid_feed)
+    if config.link_baud > 0:
+        cap_for_link(commands, config.link_baud / 10.0)
     return plan(commands, config.limits()) if config.lookahead else commands
