@@ -5,7 +5,7 @@ Starts mock_board, serial_bridge, gcode_streamer and shape_server as separate
 processes (as `ros2 run` would), publishes one ShapeGoal per figure on
 /plotter/shape (as `ros2 topic pub --once` would), waits for the board to
 finish each, prints live positions from /plotter/position, and writes a
-picture of what the board drew (docs/demo.svg by default).
+picture of what the board drew (docs/demo.svg and docs/demo.png by default).
 """
 from __future__ import annotations
 
@@ -25,7 +25,7 @@ from rclpy.executors import SingleThreadedExecutor
 from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
 
 from plotter_bridge.node_processes import PlotterGraph, read_trace, wait_until
-from plotter_bridge.picture import segment_points, svg
+from plotter_bridge.picture import figure_polylines, runs_near_path, write_picture
 from plotter_interfaces.msg import BoardState, ShapeGoal
 from plotter_shapes.geometry import build_shape
 
@@ -44,6 +44,7 @@ FIGURES = [
 def main() -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--svg", default="docs/demo.svg", help="picture to write (default docs/demo.svg)")
+    ap.add_argument("--png", default="docs/demo.png", help="the same picture as PNG ('' for none)")
     ap.add_argument("--trace", default="", help="keep the step trace here (CSV)")
     args = ap.parse_args()
 
@@ -101,19 +102,15 @@ def main() -> int:
     drawn = [(x / STEPS_PER_MM, y / STEPS_PER_MM) for _, x, y in trace]
     programmed = []
     for fig in FIGURES:
-        figure = build_shape(fig["shape"], fig["x"], fig["y"], fig["size"],
-                             fig.get("clockwise", False), fig.get("reverse", False))
-        for stroke in figure.strokes:
-            pts = []
-            for seg in stroke.segments:
-                pts.extend(segment_points(seg))
-            programmed.append(pts)
-    out = Path(args.svg)
-    out.parent.mkdir(parents=True, exist_ok=True)
-    out.write_text(svg(drawn, programmed, title="seed figures on the mock board"))
+        programmed += figure_polylines(build_shape(fig["shape"], fig["x"], fig["y"], fig["size"],
+                                                   fig.get("clockwise", False), fig.get("reverse", False)))
+    runs = runs_near_path(drawn, programmed)
+    pictures = [p for p in (args.svg, args.png) if p]
+    for path in pictures:
+        write_picture(path, runs, programmed, title="seed figures on the mock board")
     if args.trace:
         Path(args.trace).write_bytes(graph.trace.read_bytes())
-    print(f"{len(trace)} steps in {trace[-1][0]:.1f} s of board time; picture: {out}")
+    print(f"{len(trace)} steps in {trace[-1][0]:.1f} s of board time; pictures: {' '.join(pictures)}")
     if failed or any(codes):
         print(f"problems: node exit codes {codes}", file=sys.stderr)
         return 1

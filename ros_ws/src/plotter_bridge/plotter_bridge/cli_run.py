@@ -8,7 +8,10 @@ from __future__ import annotations
 
 import argparse
 import sys
+import tempfile
+import threading
 import time
+from pathlib import Path
 from typing import List, TextIO
 
 from .cli import EXIT_BAD_PROGRAM, EXIT_OK, Command, register
@@ -37,6 +40,9 @@ def _connection_args(p: argparse.ArgumentParser) -> None:
                    help="job journal directory (default $ROS_HOME/plotter_journal)")
     p.add_argument("--namespace", default="/plotter", help="ROS namespace of the nodes (default /plotter)")
     p.add_argument("--quiet", action="store_true", help="no progress bar")
+    p.add_argument("--svg", metavar="OUT.svg", default="",
+                   help="write a picture of what the board drew, the programmed path underneath")
+    p.add_argument("--png", metavar="OUT.png", default="", help="the same picture as PNG")
 
 
 def _graph_options(args: argparse.Namespace):
@@ -89,36 +95,82 @@ class ProgressBar:
         self.out.write("\n")
 
 
+class StateRecorder:
+    """The bridge's reported positions and pen states while a program runs."""
+
+    def __init__(self, node) -> None:
+        from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
+        from plotter_interfaces.msg import BoardState
+        self._disconnected = BoardState.DISCONNECTED
+        self.samples: List[tuple] = []
+        self.first = threading.Event()
+        latched = QoSProfile(depth=1, reliability=ReliabilityPolicy.RELIABLE,
+                             durability=DurabilityPolicy.TRANSIENT_LOCAL)
+        node.create_subscription(BoardState, "state", self._on_state, latched)
+
+    def _on_state(self, msg) -> None:
+        if msg.state == self._disconnected:
+            return
+        self.samples.append((msg.x_mm, msg.y_mm, msg.pen_down))
+        self.first.set()
+
+    def start(self, timeout: float = 10.0) -> tuple:
+        """Where the pen is before the program (mm); (0, 0) if the bridge says nothing."""
+        self.first.wait(timeout)
+        return self.samples[-1][:2] if self.samples else (0.0, 0.0)
+
+
+def write_pictures(args: argparse.Namespace, text: str, name: str, start: tuple,
+                   trace_path: str, samples: List[tuple], err: TextIO) -> None:
+    """--svg/--png: what was drawn (the mock's step trace, else reported positions) over the program."""
+    from .picture import program_polylines, runs_by_pen, runs_near_path, write_picture
+    programmed = program_polylines(text, start)
+    if trace_path:
+        from .node_processes import read_trace
+        spm = args.steps_per_mm
+        runs = runs_near_path(((x / spm, y / spm) for _, x, y in read_trace(Path(trace_path))), programmed)
+    else:
+        runs = runs_by_pen(samples)
+    for path in (args.svg, args.png):
+        if path:
+            write_picture(path, runs, programmed, title=name)
+            err.write(f"picture: {path}\n")
+
+
 def run_program_text(text: str, name: str, args: argparse.Namespace,
                      out: TextIO = sys.stdout, err: TextIO = sys.stderr) -> int:
     from .gcode import parse
     try:
-        if not getattr(args, "resume_id", ""):
-            parse(text)       # syntax first; the work area is checked from the pen's real position
+        parse(text)           # syntax first; the work area is checked from the pen's real position
     except GCodeError as exc:
         err.write(f"{name}:{exc}\n")
         return EXIT_BAD_PROGRAM
-    from .local_graph import LocalGraph
-    try:
-        options = _graph_options(args)
-    except ValueError as exc:
-        err.write(f"{exc}\n")
+    if (args.png and Path(args.png).suffix.lower() != ".png") or \
+            (args.svg and Path(args.svg).suffix.lower() != ".svg"):
+        err.write("--svg takes an .svg file, --png a .png file\n")
         return EXIT_BAD_PROGRAM
-    bar = None if args.quiet else ProgressBar(text.count("\n") + 1, err)
-    with LocalGraph(options) as graph:
-        result = graph.run_program(text, name, progress=bar, resume=getattr(args, "resume_id", ""))
-        report = reliability_report(graph) if options.mock and (args.faults or args.seq_log) else ""
-    if bar:
-        bar.close(result.success)
-    if report:
-        err.write(report + "\n")
+    from .local_graph import GraphOptions, LocalGraph
+    pictures = bool(args.svg or args.png)
+    trace = args.trace
+    with tempfile.TemporaryDirectory(prefix="plotter-") as tmp:
+        if pictures and args.mock and not trace:
+            trace = str(Path(tmp) / "trace.csv")
+        options = GraphOptions(port=args.port or "", mock=args.mock, baud=args.baud,
+                               steps_per_mm=args.steps_per_mm, trace=trace,
+                               namespace=args.namespace)
+        bar = None if args.quiet else ProgressBar(text.count("\n") + 1, err)
+        with LocalGraph(options) as graph:
+            recorder = StateRecorder(graph.client_node) if pictures else None
+            start = recorder.start() if recorder else (0.0, 0.0)
+            result = graph.run_program(text, name, progress=bar)
+        if bar:
+            bar.close(result.success)
+        if pictures:
+            write_pictures(args, text, name, start, trace if args.mock else "", recorder.samples, err)
     if result.success:
         out.write(f"{name}: done, pen at X{result.x_mm:.3f} Y{result.y_mm:.3f} mm\n")
         return EXIT_OK
     err.write(f"{name}: {result.message}\n")
-    if result.job_id:
-        err.write(f"to finish it from where it stopped: plotter resume {result.job_id} "
-                  f"{'--mock' if args.mock else '--port ' + args.port}\n")
     return EXIT_FAILED
 
 

@@ -1,38 +1,118 @@
-"""An SVG picture of what the plotter drew, from the mock board's step trace.
+"""Pictures of what the plotter drew: SVG or PNG, drawn with matplotlib.
 
-The trace has no pen column, so a step counts as drawn when it lies within
-a tolerance of the programmed path (the figures), and as pen-up travel
-otherwise; the programmed path is drawn underneath in another colour.
+What was drawn comes either from the mock board's step trace or from the
+bridge's reported positions. The trace has no pen column, so there a step
+counts as drawn when it lies within a tolerance of the programmed path and
+as pen-up travel otherwise (``runs_near_path``); reported positions carry the
+pen state (``runs_by_pen``). The programmed path (the figures, or the pen-down
+moves of a G-code program) is drawn underneath in another colour, on axes in
+millimetres over the work area.
 """
 from __future__ import annotations
 
 import math
-from typing import Iterable, List, Sequence, Tuple
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Iterable, List, Optional, Sequence, Tuple
 
 Point = Tuple[float, float]
+Polyline = List[Point]
+
+DRAWN_COLOUR = "black"
+PROGRAMMED_COLOUR = "#8ec5ff"
+TRAVEL_COLOUR = "#999999"
+FORMATS = ("svg", "png")
 
 
-def _arc_points(seg, n: int = 96) -> List[Point]:
-    a0 = math.atan2(seg.y0 - seg.cy, seg.x0 - seg.cx)
-    a1 = math.atan2(seg.y1 - seg.cy, seg.x1 - seg.cx)
-    r = math.hypot(seg.x0 - seg.cx, seg.y0 - seg.cy)
-    sweep = ((a0 - a1) if seg.cw else (a1 - a0)) % (2 * math.pi) or 2 * math.pi
-    sign = -1 if seg.cw else 1
-    return [(seg.cx + r * math.cos(a0 + sign * sweep * k / n),
-             seg.cy + r * math.sin(a0 + sign * sweep * k / n)) for k in range(n + 1)]
+@dataclass(frozen=True)
+class Run:
+    """Consecutive pen positions, all drawn (pen down) or all travel."""
+    drawn: bool
+    points: Tuple[Point, ...]
 
 
-def segment_points(seg) -> List[Point]:
+@dataclass(frozen=True)
+class Area:
+    """The axes' extent in mm."""
+    x_min: float = 0.0
+    x_max: float = 200.0
+    y_min: float = 0.0
+    y_max: float = 200.0
+
+    def including(self, points: Iterable[Point], margin: float = 5.0) -> "Area":
+        """This area grown to show every point."""
+        pts = list(points)
+        if not pts:
+            return self
+        xs, ys = [p[0] for p in pts], [p[1] for p in pts]
+        grow = lambda v, limit, out: v if not out else v + (-margin if v < limit else margin)  # noqa: E731
+        return Area(min(self.x_min, grow(min(xs), self.x_min, min(xs) < self.x_min)),
+                    max(self.x_max, grow(max(xs), self.x_max, max(xs) > self.x_max)),
+                    min(self.y_min, grow(min(ys), self.y_min, min(ys) < self.y_min)),
+                    max(self.y_max, grow(max(ys), self.y_max, max(ys) > self.y_max)))
+
+
+# --- programmed paths ---------------------------------------------------------------
+
+def arc_points(x0: float, y0: float, x1: float, y1: float, cx: float, cy: float, cw: bool,
+               max_step_mm: float = 0.25) -> Polyline:
+    """An arc (start == end: a full circle) as a polyline, points at most max_step_mm apart."""
+    a0 = math.atan2(y0 - cy, x0 - cx)
+    a1 = math.atan2(y1 - cy, x1 - cx)
+    r = math.hypot(x0 - cx, y0 - cy)
+    sweep = ((a0 - a1) if cw else (a1 - a0)) % (2 * math.pi) or 2 * math.pi
+    n = max(8, int(math.ceil(r * sweep / max_step_mm)))
+    sign = -1 if cw else 1
+    pts = [(cx + r * math.cos(a0 + sign * sweep * k / n), cy + r * math.sin(a0 + sign * sweep * k / n))
+           for k in range(n)]
+    return pts + [(x1, y1)]
+
+
+def segment_points(seg) -> Polyline:
     """A plotter_shapes Line or Arc as a polyline (mm)."""
     if hasattr(seg, "cx"):
-        return _arc_points(seg)
+        return arc_points(seg.x0, seg.y0, seg.x1, seg.y1, seg.cx, seg.cy, seg.cw)
     return [(seg.x0, seg.y0), (seg.x1, seg.y1)]
 
+
+def figure_polylines(figure) -> List[Polyline]:
+    """The strokes of a plotter_shapes Figure as polylines (mm)."""
+    out = []
+    for stroke in figure.strokes:
+        pts: Polyline = []
+        for seg in stroke.segments:
+            pts.extend(segment_points(seg)[1 if pts else 0:])
+        out.append(pts)
+    return out
+
+
+def program_polylines(text: str, start: Point = (0.0, 0.0)) -> List[Polyline]:
+    """The pen-down moves of a G-code program, as continuous polylines (mm)."""
+    from .gcode import parse, moves_of
+    out: List[Polyline] = []
+    end: Optional[Point] = None
+    for m in moves_of(parse(text, start=start)):
+        if m.rapid or m.pen != "down":
+            end = None
+            continue
+        if m.kind == "arc":
+            pts = arc_points(m.sx, m.sy, m.x, m.y, m.cx, m.cy, bool(m.cw))
+        else:
+            pts = [(m.sx, m.sy), (m.x, m.y)]
+        if end is not None and math.dist(end, pts[0]) < 1e-6:
+            out[-1].extend(pts[1:])
+        else:
+            out.append(pts)
+        end = pts[-1]
+    return out
+
+
+# --- what was drawn ------------------------------------------------------------------
 
 class _SegmentGrid:
     """Programmed segments bucketed by cell, for fast nearest checks."""
 
-    def __init__(self, polylines: Sequence[List[Point]], cell: float = 5.0) -> None:
+    def __init__(self, polylines: Sequence[Polyline], cell: float = 5.0) -> None:
         self.cell = cell
         self.cells: dict = {}
         for line in polylines:
@@ -52,46 +132,124 @@ class _SegmentGrid:
         return False
 
 
-def svg(trace_mm: Iterable[Point], programmed: Sequence[List[Point]], width_mm: float = 200.0,
-        height_mm: float = 200.0, title: str = "plotter", tol_mm: float = 0.05) -> str:
-    """SVG text: axes in mm, programmed path light blue, drawn path black, travel dashed grey."""
-    scale, margin = 4.0, 40.0
-    W, H = width_mm * scale + 2 * margin, height_mm * scale + 2 * margin
-
-    def xy(p: Point) -> str:
-        return f"{margin + p[0] * scale:.2f},{margin + (height_mm - p[1]) * scale:.2f}"
-
-    out = [f'<svg xmlns="http://www.w3.org/2000/svg" width="{W:.0f}" height="{H:.0f}" '
-           f'viewBox="0 0 {W:.0f} {H:.0f}" font-family="sans-serif" font-size="12">',
-           f'<title>{title}</title>', f'<rect width="{W:.0f}" height="{H:.0f}" fill="white"/>']
-    for v in range(0, int(width_mm) + 1, 20):
-        out.append(f'<line x1="{margin + v * scale}" y1="{margin}" x2="{margin + v * scale}" '
-                   f'y2="{margin + height_mm * scale}" stroke="#eee"/>')
-        out.append(f'<text x="{margin + v * scale}" y="{H - 20}" text-anchor="middle">{v}</text>')
-    for v in range(0, int(height_mm) + 1, 20):
-        y = margin + (height_mm - v) * scale
-        out.append(f'<line x1="{margin}" y1="{y}" x2="{margin + width_mm * scale}" y2="{y}" stroke="#eee"/>')
-        out.append(f'<text x="{margin - 6}" y="{y + 4}" text-anchor="end">{v}</text>')
-    out.append(f'<text x="{W / 2}" y="{H - 4}" text-anchor="middle">X (mm)</text>')
-    out.append(f'<text x="12" y="{H / 2}" transform="rotate(-90 12 {H / 2})" text-anchor="middle">Y (mm)</text>')
-    for line in programmed:
-        out.append('<polyline fill="none" stroke="#8ec5ff" stroke-width="6" stroke-linejoin="round" '
-                   f'points="{" ".join(xy(p) for p in line)}"/>')
-    grid = _SegmentGrid(programmed)
-    runs: List[Tuple[bool, List[Point]]] = []
+def _thin(points: Iterable[Point], spacing: float) -> List[Point]:
+    """Every point at least `spacing` (taxicab) from the one kept before it, and the last."""
+    out: List[Point] = []
     last = None
-    for p in trace_mm:
-        if last is not None and abs(p[0] - last[0]) + abs(p[1] - last[1]) < 0.2:
-            continue                      # a point every 0.2 mm is plenty for a picture
+    for p in points:
+        if last is not None and abs(p[0] - last[0]) + abs(p[1] - last[1]) < spacing:
+            continue
+        out.append(p)
         last = p
-        drawn = grid.near(p, tol_mm)
+    return out
+
+
+def _split(flags_points: Iterable[Tuple[bool, Point]]) -> List[Run]:
+    """Runs of equal flags; the piece between a travel point and a drawn one is travel."""
+    runs: List[Tuple[bool, List[Point]]] = []
+    for drawn, p in flags_points:
         if runs and runs[-1][0] == drawn:
             runs[-1][1].append(p)
+        elif runs and drawn:
+            runs[-1][1].append(p)
+            runs.append((True, [p]))
         else:
-            start = [runs[-1][1][-1]] if runs else []
-            runs.append((drawn, start + [p]))
-    for drawn, pts in runs:
-        style = 'stroke="black" stroke-width="1.5"' if drawn else 'stroke="#999" stroke-width="1" stroke-dasharray="4 3"'
-        out.append(f'<polyline fill="none" {style} points="{" ".join(xy(p) for p in pts)}"/>')
-    out.append("</svg>")
-    return "\n".join(out) + "\n"
+            runs.append((drawn, ([runs[-1][1][-1]] if runs else []) + [p]))
+    return [Run(d, tuple(pts)) for d, pts in runs]
+
+
+def runs_near_path(trace_mm: Iterable[Point], programmed: Sequence[Polyline],
+                   tol_mm: float = 0.05, spacing_mm: float = 0.2) -> List[Run]:
+    """Trace points (every spacing_mm) split into drawn (on the programmed path) and travel."""
+    grid = _SegmentGrid(programmed)
+    return _split((grid.near(p, tol_mm), p) for p in _thin(trace_mm, spacing_mm))
+
+
+def runs_by_pen(samples: Iterable[Tuple[float, float, bool]]) -> List[Run]:
+    """Reported positions (x_mm, y_mm, pen_down) split by the pen state."""
+    return _split((bool(down), (x, y)) for x, y, down in samples)
+
+
+# --- the picture ---------------------------------------------------------------------
+
+def picture_format(path: str) -> str:
+    """'svg' or 'png' from the file name; ValueError otherwise."""
+    suffix = Path(path).suffix.lower().lstrip(".")
+    if suffix not in FORMATS:
+        raise ValueError(f"{path}: a picture is .svg or .png")
+    return suffix
+
+
+def _joined(polylines: Iterable[Sequence[Point]]) -> Tuple[List[float], List[float]]:
+    """Polylines as one x list and one y list, broken by NaN (one artist for all)."""
+    xs: List[float] = []
+    ys: List[float] = []
+    for line in polylines:
+        if len(line) < 2:
+            continue
+        if xs:
+            xs.append(math.nan)
+            ys.append(math.nan)
+        xs.extend(p[0] for p in line)
+        ys.extend(p[1] for p in line)
+    return xs, ys
+
+
+def draw(runs: Sequence[Run], programmed: Sequence[Polyline], area: Area = Area(),
+         title: str = "plotter", scale_px_per_mm: float = 4.0):
+    """A matplotlib Figure: programmed path light blue, drawn path black, travel dashed grey.
+
+    The axes are in mm with equal scale; the drawn lines have the gid
+    'drawn', the travel 'travel' and the programmed path 'programmed' (the
+    ids of their groups in an SVG).
+    """
+    from matplotlib.figure import Figure
+    from matplotlib.lines import Line2D
+
+    every = [p for line in programmed for p in line] + [p for r in runs for p in r.points]
+    area = area.including(every)
+    w_mm, h_mm = area.x_max - area.x_min, area.y_max - area.y_min
+    dpi = 100.0
+    margin_px = 60.0
+    w_px, h_px = w_mm * scale_px_per_mm + 2 * margin_px, h_mm * scale_px_per_mm + 2 * margin_px
+    fig = Figure(figsize=(w_px / dpi, h_px / dpi), dpi=dpi)
+    ax = fig.add_axes((margin_px / w_px, margin_px / h_px, 1 - 2 * margin_px / w_px, 1 - 2 * margin_px / h_px))
+    ax.set_xlim(area.x_min, area.x_max)
+    ax.set_ylim(area.y_min, area.y_max)
+    ax.set_aspect("equal", adjustable="box")
+    ax.set_xlabel("X (mm)")
+    ax.set_ylabel("Y (mm)")
+    ax.set_title(title, fontsize=10)
+    ax.grid(True, color="#eeeeee", linewidth=0.8)
+    ax.set_axisbelow(True)
+    ax.plot(*_joined(programmed), color=PROGRAMMED_COLOUR, linewidth=4.5, solid_capstyle="round",
+            solid_joinstyle="round", gid="programmed", snap=False)
+    ax.plot(*_joined(r.points for r in runs if r.drawn), color=DRAWN_COLOUR, linewidth=1.1,
+            gid="drawn", snap=False)
+    ax.plot(*_joined(r.points for r in runs if not r.drawn), color=TRAVEL_COLOUR, linewidth=0.8,
+            linestyle=(0, (4, 3)), gid="travel", snap=False)
+    handles = [Line2D([], [], color=PROGRAMMED_COLOUR, linewidth=4.5, label="programmed"),
+               Line2D([], [], color=DRAWN_COLOUR, linewidth=1.1, label="drawn"),
+               Line2D([], [], color=TRAVEL_COLOUR, linewidth=0.8, linestyle=(0, (4, 3)), label="pen-up travel")]
+    ax.legend(handles=handles, loc="upper right", fontsize=8, framealpha=0.9)
+    return fig
+
+
+def write_picture(path: str, runs: Sequence[Run], programmed: Sequence[Polyline],
+                  area: Area = Area(), title: str = "plotter") -> None:
+    """Write the picture as SVG or PNG (from the file name's suffix)."""
+    from matplotlib import rc_context
+    fmt = picture_format(path)
+    Path(path).parent.mkdir(parents=True, exist_ok=True)
+    metadata = {"Date": None} if fmt == "svg" else {"Software": "plotter"}
+    # Same input, same file: fixed ids in the SVG, text kept as text; every point kept.
+    with rc_context({"svg.hashsalt": "plotter", "svg.fonttype": "none", "path.simplify": False}):
+        draw(runs, programmed, area, title).savefig(path, format=fmt, metadata=metadata)
+
+
+def mm_to_pixel(fig, p: Point) -> Tuple[float, float]:
+    """Where a point in mm lands in the image (pixels from the top left)."""
+    ax = fig.axes[0]
+    ax.apply_aspect()
+    x, y = ax.transData.transform(p)
+    return float(x), float(fig.bbox.height - y)
