@@ -36,6 +36,7 @@ from plotter_interfaces.msg import BoardState
 
 from .board_session import DISCONNECTED, QUEUE_SIZE, BoardSession, Job, SessionConfig
 from .protocol import Status
+from .telemetry import BridgeTelemetry
 
 STATE_CODES = {"Idle": BoardState.IDLE, "Run": BoardState.RUNNING,
                "Hold": BoardState.HOLD, "Alarm": BoardState.ALARM}
@@ -105,6 +106,8 @@ class SerialBridge(Node):
         self._job: Optional[Job] = None
         self._job_id = ""
         self._reserved = False
+        self._telemetry = BridgeTelemetry(self, self.steps_per_mm, self.frame_id,
+                                          str(self.get_parameter("port").value))
         self.session = BoardSession(self._open_port, config, on_status=self._on_status,
                                     on_change=self._on_change, log=self._log)
         self._running = True
@@ -141,9 +144,12 @@ class SerialBridge(Node):
         s.pen_down = st.pen_down
         s.queue_free = st.queue_free
         self.pub_state.publish(s)
+        self._telemetry.on_status(st, self.session.link.stats, self.session.firmware,
+                                  self.session.last_error, self.session.job)
 
     def _on_change(self) -> None:
         if self.session.connection == DISCONNECTED:
+            self._telemetry.on_link_lost(self.session.last_error)
             s = self._state_msg(BoardState.DISCONNECTED)
             st = self.session.link.status if self.session.link else None
             if st is not None:         # the last position the board reported

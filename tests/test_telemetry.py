@@ -1,0 +1,136 @@
+"""The bridge's RViz topics (path, planned_path, pen, ink) and /diagnostics (plotter_bridge.telemetry)."""
+import math
+import random
+import threading
+import time
+
+import pytest
+
+from plotter_bridge.link import LinkStats
+from plotter_bridge.telemetry import (ERROR, OK, STALE, WARN, BridgeSnapshot, LinkCounters, Sample,
+                                      diagnose_board, diagnose_link, ink_segments, planned_points,
+                                      step_rate, thin)
+
+
+def test_planned_points_follow_lines_arcs_and_the_pen():
+    pts = planned_points(["P 1", "L 800 0 2000 0", "A 0 0 -400 0 2000 0", "P 0", "L -800, 0 3000 0"], (100, 100))
+    assert (pts[0].x, pts[0].y, pts[0].pen_down) == (100, 100, False)
+    assert (pts[1].x, pts[1].y, pts[1].pen_down) == (900, 100, True)
+    circle = [p for p in pts if p.pen_down][1:]
+    assert len(circle) > 50
+    assert all(abs(math.hypot(p.x - 500, p.y - 100) - 400) < 1e-6 for p in circle)
+    assert circle[len(circle) // 4].y > 100           # counter-clockwise from the right: up first
+    assert (pts[-1].x, pts[-1].y, pts[-1].pen_down) == (100, 100, False)
+    cw = planned_points(["C 0 0 -400 0"], (0, 0))
+    assert cw[len(cw) // 4].y < 0
+
+
+def test_step_rate_thinning_and_ink():
+    a, b = Sample(0.0, 0, 0, True), Sample(0.5, 300, -200, True)
+    assert step_rate(a, b) == 1000.0 and step_rate(b, b) == 0.0
+    samples = [Sample(float(k), k, 0, k % 3 != 0) for k in range(10)]
+    assert len(thin(samples, 6)) == 8 and thin(samples, 6)[-5:] == samples[-5:]
+    assert ink_segments(samples) == [(samples[1], samples[2]), (samples[4], samples[5]), (samples[7], samples[8])]
+
+
+def test_diagnostic_levels():
+    up = BridgeSnapshot(port="/dev/ttyUSB0", connected=True, ever_connected=True, seconds_since_status=0.04,
+                        board_state="Run", queue_free=2, step_rate=4000, firmware="PLOTTER 8051 1.0 ready",
+                        counters=LinkCounters.of(LinkStats(bytes_sent=100, retransmissions=3)))
+    link, board = diagnose_link(up), diagnose_board(up)
+    assert (link.level, board.level) == (OK, OK) and board.message == "running"
+    values = dict(link.values + board.values)
+    assert values["retransmissions"] == "3" and values["queue fill %"] == "67"
+    assert values["firmware"] == "PLOTTER 8051 1.0 ready" and values["step rate (steps/s)"] == "4000"
+    assert diagnose_link(BridgeSnapshot(connected=True, seconds_since_status=0.1, errors_in_last_period=2)).level == WARN
+    assert diagnose_link(BridgeSnapshot(connected=True, seconds_since_status=3.0)).level == WARN
+    gone = BridgeSnapshot(port="/dev/ttyUSB0", ever_connected=True, lost_reason="disconnected: [Errno 5]")
+    assert diagnose_link(gone).level == ERROR and "Errno 5" in diagnose_link(gone).message
+    assert diagnose_board(gone).level == ERROR
+    assert diagnose_board(BridgeSnapshot(connected=True, board_state="Alarm", alarm=1)).level == ERROR
+    assert diagnose_board(BridgeSnapshot(connected=True, board_state="Run", underruns_in_last_period=1)).level == WARN
+    assert diagnose_board(BridgeSnapshot(connected=True)).level == STALE
+
+
+def _program(n=120):
+    lines, x, y = ["G21 G90", "G0 X40 Y40", "M3"], 40.0, 40.0
+    for k in range(n):
+        x += 0.8 * math.cos(k * 0.15)
+        y += 0.8 * math.sin(k * 0.15)
+        lines.append(f"G1 X{x:.3f} Y{y:.3f} F1200")
+    return "\n".join(lines + ["M5", "M2"]) + "\n", (x, y)
+
+
+@pytest.mark.ros
+def test_path_grows_and_diagnostics_follow_the_link(tmp_path):
+    from diagnostic_msgs.msg import DiagnosticArray
+    from geometry_msgs.msg import PointStamped
+    from nav_msgs.msg import Path
+    from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
+    from std_msgs.msg import String
+    from visualization_msgs.msg import Marker
+    from ros_graph import PlotterGraph, Probe, wait_until
+
+    domain = random.SystemRandom().randint(110, 200)
+    g = PlotterGraph(domain, tmp_path)
+    probe = Probe(domain)
+    lock = threading.Lock()
+    paths, planned, pens, diags, positions = [], [], [], [], []
+
+    def keep(store, f):
+        def cb(msg):
+            with lock:
+                store.append((time.monotonic(), f(msg)))
+        return cb
+
+    latched = QoSProfile(depth=1, reliability=ReliabilityPolicy.RELIABLE, durability=DurabilityPolicy.TRANSIENT_LOCAL)
+    node = probe.node
+    node.create_subscription(Path, "path", keep(paths, lambda m: [(p.pose.position.x, p.pose.position.y)
+                                                                  for p in m.poses]), latched)
+    node.create_subscription(Path, "planned_path", keep(planned, lambda m: [(p.pose.position.x, p.pose.position.y)
+                                                                            for p in m.poses]), latched)
+    node.create_subscription(Marker, "pen", keep(pens, lambda m: (m.pose.position.x, m.header.frame_id)), 10)
+    node.create_subscription(PointStamped, "position", keep(positions, lambda m: (m.point.x, m.point.y)), 10)
+    node.create_subscription(DiagnosticArray, "/diagnostics", keep(diags, lambda m: {
+        s.name: (s.level, s.message, {kv.key: kv.value for kv in s.values}) for s in m.status}), 10)
+    pub = node.create_publisher(String, "program", 10)
+    link_name, board_name = "plotter/serial_bridge: link", "plotter/serial_bridge: board"
+    try:
+        wait_until(lambda: any(d[1].get(link_name, (None,))[0] == OK for d in diags), 30, "link OK in /diagnostics")
+        wait_until(lambda: pub.get_subscription_count() > 0, 30, "gcode_streamer")
+        text, end = _program()
+        t0 = time.monotonic()
+        pub.publish(String(data=text))
+
+        def at_end():
+            with lock:
+                return bool(positions) and positions[-1][0] > t0 and \
+                    math.dist(positions[-1][1], end) < 0.02 and len(paths) > 3
+        wait_until(at_end, 90, "the program to finish")
+        time.sleep(0.5)
+        with lock:
+            sizes = [len(p) for t, p in paths if t > t0]
+            last_path = paths[-1][1]
+            running = [d for t, d in diags if t > t0 and board_name in d and d[board_name][1] == "running"]
+        assert len(set(sizes)) >= 3 and sizes == sorted(sizes), sizes       # it grew while the board moved
+        assert math.dist((last_path[-1][0] * 1000, last_path[-1][1] * 1000), end) < 0.05
+        assert running, "no diagnostics while the board ran"
+        assert all(d[link_name][0] == OK for d in running)
+        assert max(float(d[board_name][2]["step rate (steps/s)"]) for d in running) > 500
+        assert int(running[-1][link_name][2]["bytes sent"]) > 1000
+        plan = planned[-1][1]
+        assert len(plan) > 100 and math.dist((plan[-1][0] * 1000, plan[-1][1] * 1000), end) < 0.05
+        assert pens and pens[-1][1][1] == "plotter"
+
+        g.board.proc.kill()                          # the port goes away
+        g.board.proc.wait()
+        t1 = time.monotonic()
+        wait_until(lambda: any(t > t1 and d.get(link_name, (None,))[0] == ERROR for t, d in diags), 15,
+                   "ERROR in /diagnostics")
+    except BaseException:
+        print(g.outputs())
+        raise
+    finally:
+        probe.close()
+        codes = g.close()
+    assert codes[:3] == [0, 0, 0], codes              # shapes, streamer, bridge stop cleanly
