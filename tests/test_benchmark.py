@@ -1,0 +1,109 @@
+"""The benchmark's own parts: the independent time-optimal bound, the
+simulated board with both UART directions at the baud rate, and the
+planner's link cap that the benchmark motivated."""
+import math
+import sys
+from pathlib import Path
+
+import pytest
+
+from firmware_build import host_library
+from plotter_bridge.commands import BoardCommand
+from plotter_bridge.firmware_core import FirmwareCore
+from plotter_bridge.planner import cap_for_link, wire_bytes
+from plotter_bridge.protocol import machine_line
+
+sys.path.insert(0, str(Path(__file__).resolve().parent.parent / "benchmarks"))
+from bound import Limits, Move, Wait, chain_time, corner_rate, junction_rates, move_time, program_time  # noqa: E402
+from simboard import SimBoard, settle  # noqa: E402
+
+LIM = Limits(acceleration=100000.0, junction_deviation=4.0, start_rate=250.0)
+EAST, NORTH, WEST, SOUTH = (1.0, 0.0), (0.0, 1.0), (-1.0, 0.0), (0.0, -1.0)
+
+
+def numeric_time(steps, entry, exit_, cruise, accel, dt=1e-6):
+    """Fastest profile by brute force: accelerate while braking to exit_ is
+    still possible, else brake; never above cruise."""
+    x, v, t = 0.0, entry, 0.0
+    while x < steps:
+        brake = (v * v - exit_ * exit_) / (2 * accel)
+        if steps - x <= brake:
+            v = max(exit_, v - accel * dt)
+        else:
+            v = min(cruise, v + accel * dt)
+        x += v * dt
+        t += dt
+    return t
+
+
+@pytest.mark.parametrize("steps,entry,exit_,cruise", [
+    (4000, 250, 250, 8000),       # trapezoid
+    (300, 250, 250, 8000),        # triangle
+    (500, 3000, 1000, 4000),      # entry and exit in motion
+    (2000, 4000, 4000, 4000),     # cruise only
+])
+def test_move_time_is_the_fastest_profile(steps, entry, exit_, cruise):
+    assert move_time(steps, entry, exit_, cruise, 1e5) == pytest.approx(
+        numeric_time(steps, entry, exit_, cruise, 1e5), rel=2e-3)
+
+
+def test_corner_rule():
+    assert corner_rate(EAST, EAST, LIM) == math.inf
+    assert corner_rate(EAST, WEST, LIM) == 0.0
+    c = math.cos(math.pi / 4)                         # a right angle turns by 90 degrees
+    assert corner_rate(EAST, NORTH, LIM) == pytest.approx(math.sqrt(1e5 * 4 * c / (1 - c)))
+
+
+def test_junctions_respect_corners_braking_and_the_start_rate():
+    moves = [Move(800, 6000, EAST, EAST), Move(800, 6000, NORTH, NORTH), Move(50, 6000, SOUTH, SOUTH)]
+    v = junction_rates(moves, LIM)
+    assert v[0] == v[-1] == 250.0
+    assert v[1] == pytest.approx(corner_rate(EAST, NORTH, LIM))
+    assert v[2] == 250.0                               # a reversal: at the start rate
+    for k, m in enumerate(moves):                     # every move can link its two ends
+        assert abs(v[k + 1] ** 2 - v[k] ** 2) <= 2 * LIM.acceleration * m.steps + 1e-6
+
+
+def test_waits_split_chains_and_add_their_time():
+    a, b = Move(4000, 8000, EAST, EAST), Move(4000, 8000, EAST, EAST)
+    together = program_time([a, b], LIM)
+    apart = program_time([Wait(0.5), a, Wait(0.15), b, Wait(0.5)], LIM)
+    assert together == pytest.approx(chain_time([a, b], LIM))
+    assert apart == pytest.approx(2 * chain_time([a], LIM) + 0.15)
+    assert together < apart - 0.15
+
+
+@pytest.fixture
+def core():
+    c = FirmwareCore(host_library())
+    yield c
+    c.close()
+
+
+def test_sim_board_sends_replies_at_the_baud_rate(core):
+    board = SimBoard(core, baud=9600)
+    settle(board, 0.1)
+    board.port.read(4096)                             # the banner
+    line = machine_line(0, "L 80 0 2000 0")
+    board.port.write(line)
+    got, t_reply = b"", None
+    while b"\n" not in got:
+        settle(board, 0.001)
+        got += board.port.read(4096)
+        t_reply = board.now if b"\n" in got else None
+    # the line arrives byte by byte, then the reply leaves byte by byte: 1.04 ms each at 9600
+    expected = (len(line) + len(got)) * 10 / 9600 + 0.1
+    assert t_reply == pytest.approx(expected, abs=0.0025)
+    assert got.startswith(b"ok N0 Q")
+
+
+def test_link_cap_makes_commands_last_their_time_on_the_wire():
+    cmds = [BoardCommand("L", (8, 0), 1, 8, 8000, dir_in=EAST, dir_out=EAST) for _ in range(5)]
+    cmds.append(BoardCommand("L", (4000, 0), 1, 4000, 8000, dir_in=EAST, dir_out=EAST))
+    cap_for_link(cmds, 11520.0, share=0.9)
+    for c in cmds:
+        assert c.steps / c.rate >= wire_bytes(c) / (11520.0 * 0.9) - 1e-9
+    assert cmds[0].rate < 8000 and cmds[-1].rate == 8000     # long commands keep their feed
+    c = cmds[0]
+    c.exit_rate = c.rate
+    assert wire_bytes(c) == len(machine_line(1234, c.text))
