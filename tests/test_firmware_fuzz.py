@@ -17,10 +17,7 @@ from firmware_build import FIRMWARE, host_library
 
 CORE = ["hal/host/core_api.c", "core/stepper.c", "core/planner.c", "core/protocol.c", "core/serial.c",
         "build/ramp_table.c"]
-# The arc interpolation updates its deviation with a left shift of a negative
-# int32 (core/stepper.c: `(int32_t)c << 1`), which C leaves undefined and gcc
-# and SDCC compute as a doubling; that one check is off, every other is on.
-SANITIZE = ["-fsanitize=address,undefined", "-fno-sanitize=shift-base", "-fno-sanitize-recover=all",
+SANITIZE = ["-fsanitize=address,undefined", "-fno-sanitize-recover=all",
             "-fno-omit-frame-pointer"]
 
 

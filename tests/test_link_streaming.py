@@ -9,7 +9,7 @@ import pytest
 from firmware_build import host_library
 from plotter_bridge.firmware_core import FirmwareCore
 from plotter_bridge.link import BoardLink
-from plotter_bridge.protocol import (Banner, Err, Ok, Resend, Status, checksum, machine_line,
+from plotter_bridge.protocol import (Banner, Err, Ok, Resend, Status, checksum, fletcher, machine_line,
                                      parse_reply)
 from sim_port import SimPort
 
@@ -44,7 +44,6 @@ def connect(port, **kw):
 
 def test_machine_line_format_and_checksum():
     assert machine_line(17, "L 400 -300") == b"N17 L 400 -300 *%d\n" % checksum("N17 L 400 -300 ")
-    assert checksum("A") == 0x4141
     assert machine_line(65536 + 3, "P 1").startswith(b"N3 P 1 *")
 
 
@@ -64,9 +63,16 @@ def test_reply_parsing():
     assert parse_reply(signed("ok N12 Q5").replace("Q5", "Q")) is None
 
 
+def test_checksum_is_fletcher_with_end_around_carry():
+    assert fletcher(b"A") == (65 << 8) | 65
+    assert fletcher(b"\xff\x01") == fletcher(b"\x00\x01")   # 255 and 0 are the same modulo 255
+
+
 def test_checksum_catches_what_xor_misses():
     assert checksum("N1 L 100 ") != checksum("N1 L 1 ")      # a dropped pair of equal bytes
     assert checksum("N1 L 12 ") != checksum("N1 L 21 ")      # swapped bytes
+    # Two flips of bit 7 in the same direction cancel modulo 256, not modulo 255.
+    assert fletcher(bytes([0x41, 0x42, 0x43, 0x44])) != fletcher(bytes([0x41, 0xC2, 0xC3, 0x44]))
 
 
 def test_stream_many_segments_keeps_queue_busy_and_ends_exactly(core):

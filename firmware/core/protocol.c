@@ -24,6 +24,15 @@ uint8_t alarm_code;
 static IDATA char line[LINE_MAX + 1];
 static FAST uint8_t line_len;
 static XDATA uint8_t line_s1, line_s2;  /* checksum of the bytes before '*' (see put_eol) */
+
+/* One byte into a Fletcher sum: 8-bit ones' complement additions (an
+ * end-around carry), i.e. modulo 255, so that bit 7 errors cannot cancel. */
+#define FLETCHER_ADD(s1, s2, c) do {                                      \
+        uint16_t t_ = (uint16_t)(s1) + (uint8_t)(c);                      \
+        (s1) = (uint8_t)((uint8_t)t_ + (uint8_t)(t_ >> 8));               \
+        t_ = (uint16_t)(s2) + (s1);                                       \
+        (s2) = (uint8_t)((uint8_t)t_ + (uint8_t)(t_ >> 8));               \
+    } while (0)
 static FAST uint8_t line_star;    /* index of '*' + 1, 0 if none */
 static FLAG line_long;            /* the line overflowed LINE_MAX */
 static FLAG resend_asked;         /* an rs is outstanding: drop later lines quietly */
@@ -44,8 +53,7 @@ static XDATA uint8_t tx_s1, tx_s2;  /* checksum of the reply line so far */
 /* Every byte of a reply goes through here, summed for the line's checksum. */
 static void out(uint8_t c)
 {
-    tx_s1 += c;
-    tx_s2 += tx_s1;
+    FLETCHER_ADD(tx_s1, tx_s2, c);
     hal_putc(c);
 }
 
@@ -59,10 +67,10 @@ static void put_str(const ROM char *s)
 
 static void put_num(void);
 
-/* End a reply line with " *<checksum>": a Fletcher sum, 256 * s2 + s1 with
- * s1 += byte, s2 += s1 (mod 256), over the bytes before the '*'.  Unlike an
- * XOR it notices a dropped or repeated pair of equal bytes and swapped
- * bytes; the host trusts no reply that fails it. */
+/* End a reply line with " *<checksum>": the Fletcher sum 256 * s2 + s1 of
+ * the bytes before the '*' (FLETCHER_ADD).  Unlike an XOR it notices a
+ * dropped or repeated pair of equal bytes and swapped bytes; the host trusts
+ * no reply that fails it. */
 static void put_eol(void)
 {
     out(' ');
@@ -474,8 +482,7 @@ static void receive_byte(uint8_t c)
     if (c == '*' && !line_star) {
         line_star = (uint8_t)(line_len + 1);
     } else if (!line_star) {
-        line_s1 += c;
-        line_s2 += line_s1;
+        FLETCHER_ADD(line_s1, line_s2, c);
     }
     line[line_len++] = (char)c;
 }

@@ -311,7 +311,7 @@ not_line:
             st_port &= (uint8_t)~BIT_Y_DIR;
         }
     }
-    st_af += ((int32_t)c << 1) + 1;
+    st_af += (int32_t)(uint32_t)((uint32_t)(int32_t)c << 1) + 1;   /* 2c + 1, shifted unsigned: defined for negative c */
     HAL_PORT_OUT(st_port);           /* direction set a whole period before its pulse */
     if (st_seg.crossings) {
         /* Has the arc reached the half-axis that ends its quadrant?  Testing

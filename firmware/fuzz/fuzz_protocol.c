@@ -44,6 +44,15 @@ static void fail(const char *why)
     abort();
 }
 
+/* The protocol's Fletcher sum: 8-bit ones' complement additions. */
+static void fletcher_add(uint8_t *s1, uint8_t *s2, uint8_t c)
+{
+    unsigned t = (unsigned)*s1 + c;
+    *s1 = (uint8_t)((t & 0xFF) + (t >> 8));
+    t = (unsigned)*s2 + *s1;
+    *s2 = (uint8_t)((t & 0xFF) + (t >> 8));
+}
+
 /* A reply line: "<text> *<decimal sum>" before "\r\n". */
 static void check_reply(void)
 {
@@ -52,8 +61,7 @@ static void check_reply(void)
     while (star > 0 && reply[star - 1] != '*') star--;
     if (star == 0) fail("reply without a checksum");
     for (k = 0; k + 1 < star; k++) {
-        s1 = (uint8_t)(s1 + reply[k]);
-        s2 = (uint8_t)(s2 + s1);
+        fletcher_add(&s1, &s2, reply[k]);
     }
     for (k = star; k < reply_len; k++) {
         if (reply[k] < '0' || reply[k] > '9') fail("checksum is not a number");
@@ -160,8 +168,7 @@ static size_t machine_line(uint8_t *out, size_t cap, unsigned seq, const char *c
     uint8_t s1 = 0, s2 = 0;
     size_t k, n = (size_t)snprintf(body, sizeof body, "N%u %s ", seq, cmd);
     for (k = 0; k < n; k++) {
-        s1 = (uint8_t)(s1 + (uint8_t)body[k]);
-        s2 = (uint8_t)(s2 + s1);
+        fletcher_add(&s1, &s2, (uint8_t)body[k]);
     }
     n = (size_t)snprintf((char *)out, cap, "%s*%u\n", body, ((unsigned)s2 << 8) | s1);
     return n < cap ? n : cap;

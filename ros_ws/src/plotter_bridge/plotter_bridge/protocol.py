@@ -25,14 +25,22 @@ ERROR_TEXT = {
 }
 
 
-def checksum(text: str) -> int:
-    """Fletcher sum of text, as the firmware computes it: s1 += byte,
-    s2 += s1 (both mod 256); the checksum is 256 * s2 + s1."""
+def fletcher(data: bytes) -> int:
+    """The protocol's checksum, as the firmware computes it: s1 += byte,
+    s2 += s1, both 8-bit ones' complement additions (an end-around carry,
+    i.e. modulo 255); the checksum is 256 * s2 + s1."""
     s1 = s2 = 0
-    for b in text.encode("ascii", "replace"):
-        s1 = (s1 + b) & 0xFF
-        s2 = (s2 + s1) & 0xFF
+    for b in data:
+        t = s1 + b
+        s1 = (t & 0xFF) + (t >> 8)
+        t = s2 + s1
+        s2 = (t & 0xFF) + (t >> 8)
     return (s2 << 8) | s1
+
+
+def checksum(text: str) -> int:
+    """Checksum of a line's text (non-ASCII characters count as '?')."""
+    return fletcher(text.encode("ascii", "replace"))
 
 
 def machine_line(seq: int, command: str) -> bytes:
