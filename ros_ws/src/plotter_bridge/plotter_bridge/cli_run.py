@@ -316,3 +316,68 @@ def run_watch(args: argparse.Namespace, out: TextIO = sys.stdout) -> int:
 
 register(Command("watch", "print live positions (like ros2 topic echo /plotter/position)",
                  _configure_watch, run_watch))
+
+
+# ---------------------------------------------------------------- svg and text
+
+def _drawing_args(p: argparse.ArgumentParser, what: str) -> None:
+    p.add_argument("--width", type=float, default=None, metavar="MM",
+                   help=f"scale the {what} to this width (default: {'its own size' if what == 'drawing' else 'the font size'})")
+    p.add_argument("--x", type=float, default=100.0, metavar="MM", help=f"centre of the {what}, X (default 100)")
+    p.add_argument("--y", type=float, default=100.0, metavar="MM", help=f"centre of the {what}, Y (default 100)")
+    p.add_argument("--optimize", action="store_true",
+                   help="merge paths that meet and reorder them for less pen-up travel (vpype linemerge, linesort)")
+    p.add_argument("--feed", type=float, default=DEFAULT_FEED, metavar="MM_PER_MIN",
+                   help=f"drawing feed (default {DEFAULT_FEED:g})")
+    p.add_argument("--gcode", metavar="OUT.gcode", default="", help="also write the program here")
+    _connection_args(p)
+
+
+def _run_drawing(make_program, name: str, args: argparse.Namespace) -> int:
+    from plotter_shapes.geometry import ShapeError
+    from .svg_input import VectorError
+    try:
+        lines = make_program()
+    except (VectorError, ShapeError) as exc:
+        sys.stderr.write(f"{name}: {exc}\n")
+        return EXIT_BAD_PROGRAM
+    text = "\n".join(lines) + "\n"
+    if args.gcode:
+        Path(args.gcode).write_text(text)
+    return run_program_text(text, name, args)
+
+
+def _configure_svg(p: argparse.ArgumentParser) -> None:
+    p.add_argument("file", metavar="FILE.svg", help="vector drawing to plot")
+    _drawing_args(p, "drawing")
+
+
+def run_svg(args: argparse.Namespace) -> int:
+    from .svg_input import Placement, svg_program
+    if not Path(args.file).is_file():
+        sys.stderr.write(f"{args.file}: no such file\n")
+        return EXIT_BAD_PROGRAM
+    placement = Placement(args.width, (args.x, args.y))
+    return _run_drawing(lambda: svg_program(args.file, placement, args.feed, args.optimize), args.file, args)
+
+
+register(Command("svg", "plot an SVG drawing (circles and arcs as arcs, curves as lines)", _configure_svg, run_svg))
+
+
+def _configure_text(p: argparse.ArgumentParser) -> None:
+    from .text_input import DEFAULT_FONT
+    p.add_argument("text", help="one line of text")
+    p.add_argument("--font", default=DEFAULT_FONT, help=f"Hershey font (default {DEFAULT_FONT})")
+    p.add_argument("--size", type=float, default=10.0, metavar="MM", help="font size (default 10)")
+    _drawing_args(p, "text")
+
+
+def run_text(args: argparse.Namespace) -> int:
+    from .svg_input import Placement
+    from .text_input import text_program
+    placement = Placement(args.width, (args.x, args.y))
+    return _run_drawing(lambda: text_program(args.text, args.font, args.size, placement, args.feed, args.optimize),
+                        args.text, args)
+
+
+register(Command("text", "write text in a Hershey font", _configure_text, run_text))

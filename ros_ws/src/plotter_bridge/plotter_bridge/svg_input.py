@@ -1,0 +1,223 @@
+"""Vector drawings (SVG) to plotter figures, with vpype.
+
+vpype reads the file (every shape and curve flattened to polylines), scales
+and places it, and with ``optimize`` merges paths that meet (``linemerge``)
+and orders them to shorten the pen-up travel (``linesort``). Its polylines
+are then turned back into lines and circular arcs: the circles and circular
+arcs of the input (read with svgelements, the parser vpype itself uses) are
+carried through the same transform, and a run of polyline points lying on
+one of them, turning steadily one way, becomes one arc (G2/G3 in the
+program) instead of hundreds of short lines. Cubic and quadratic curves and
+elliptical arcs stay polylines.
+
+Coordinates here are millimetres in the plotter's frame (+y away from the
+operator, where SVG's +y points down); vpype's documents are in CSS pixels
+(96 per inch) until scaled.
+"""
+from __future__ import annotations
+
+import cmath
+import math
+from dataclasses import dataclass
+from typing import List, Optional, Sequence, Tuple
+
+import numpy as np
+
+PX_PER_MM = 96.0 / 25.4
+QUANTIZATION_PX = 0.1          # vpype's flattening step when reading
+SIMPLIFY_MM = 0.005            # polyline simplification, well under a step (1/80 mm)
+MERGE_MM = 0.05                # paths whose ends are this close are joined (optimize)
+MAX_ARC_STEP = 0.35            # rad between polyline points taken as one arc
+MIN_ARC_RADIUS_MM = 0.1
+
+
+class VectorError(ValueError):
+    """A drawing that cannot be turned into a program."""
+
+
+@dataclass(frozen=True)
+class Circle:
+    centre: complex
+    radius: float
+
+
+@dataclass(frozen=True)
+class Placement:
+    """Scale and place a drawing: width in mm (None: its own size), centre in mm."""
+    width: Optional[float] = None
+    centre: Tuple[float, float] = (100.0, 100.0)
+
+
+@dataclass(frozen=True)
+class Drawing:
+    """Polylines (complex numpy arrays, mm, plotter frame) and the circles they may follow."""
+    lines: Tuple[np.ndarray, ...]
+    circles: Tuple[Circle, ...] = ()
+
+
+# --- reading ------------------------------------------------------------------------------
+
+def svg_circles(path: str) -> List[Circle]:
+    """Circles and circular arcs of an SVG file, in vpype's pixel frame (transforms applied)."""
+    import svgelements as se
+    found = {}
+    for element in se.SVG.parse(path).elements():
+        if not isinstance(element, se.Shape):
+            continue
+        for seg in se.Path(element).segments():
+            if isinstance(seg, se.Arc) and seg.center is not None and \
+                    math.isclose(seg.rx, seg.ry, rel_tol=1e-9, abs_tol=1e-9) and seg.rx > 0:
+                c = Circle(complex(seg.center.x, seg.center.y), float(seg.rx))
+                found[(round(c.centre.real, 6), round(c.centre.imag, 6), round(c.radius, 6))] = c
+    return list(found.values())
+
+
+def read_svg(path: str) -> Drawing:
+    """The file's paths as vpype reads them, and its circles (pixels, SVG frame)."""
+    import vpype as vp
+    try:
+        lc, _, _ = vp.read_svg(path, quantization=QUANTIZATION_PX, crop=False)
+    except Exception as exc:  # svgelements/xml errors: a file that is not an SVG drawing
+        raise VectorError(f"{path}: cannot read as SVG: {exc}") from exc
+    return Drawing(tuple(np.asarray(line) for line in lc), tuple(svg_circles(path)))
+
+
+# --- scaling, placing, merging, sorting (vpype) ------------------------------------------------
+
+def _transform(d: Drawing, scale: float, offset: complex) -> Drawing:
+    """Scale, flip y (SVG down to plotter up) and translate, polylines and circles alike."""
+    import vpype as vp
+    lc = vp.LineCollection(list(d.lines))
+    lc.scale(scale, -scale)
+    lc.translate(offset.real, offset.imag)
+    circles = tuple(Circle(complex(c.centre.real * scale, -c.centre.imag * scale) + offset, c.radius * scale)
+                    for c in d.circles)
+    return Drawing(tuple(np.asarray(line) for line in lc), circles)
+
+
+def place(d: Drawing, placement: Placement, units_per_mm: float) -> Drawing:
+    """In mm, width placement.width (or natural size), bounding box centred on placement.centre."""
+    lines = [line for line in d.lines if len(line) >= 2]
+    if not lines:
+        raise VectorError("the drawing has no paths")
+    pts = np.concatenate(lines)
+    x0, x1, y0, y1 = pts.real.min(), pts.real.max(), pts.imag.min(), pts.imag.max()
+    natural = (x1 - x0) / units_per_mm
+    if placement.width is not None:
+        if not (math.isfinite(placement.width) and placement.width > 0):
+            raise VectorError(f"width must be a positive number of mm, not {placement.width}")
+        if natural <= 0:
+            raise VectorError("the drawing has no width to scale")
+    scale = (placement.width / (x1 - x0)) if placement.width is not None else 1.0 / units_per_mm
+    mid = complex((x0 + x1) / 2 * scale, -(y0 + y1) / 2 * scale)
+    return _transform(Drawing(tuple(lines), d.circles), scale, complex(*placement.centre) - mid)
+
+
+def optimize(d: Drawing) -> Drawing:
+    """vpype's linemerge and linesort: fewer pen lifts, shorter travel."""
+    import vpype as vp
+    import vpype_cli
+    doc = vp.Document(vp.LineCollection(list(d.lines)))
+    doc = vpype_cli.execute(f"linemerge --tolerance {MERGE_MM} linesort", doc)
+    return Drawing(tuple(np.asarray(line) for line in doc.layers[1]), d.circles)
+
+
+# --- polylines back to lines and arcs --------------------------------------------------------------
+
+def _on_circle(p: complex, c: Circle) -> bool:
+    return abs(abs(p - c.centre) - c.radius) <= 1e-6 * max(1.0, c.radius)
+
+
+def _arc_run(pts: Sequence[complex], i: int, c: Circle) -> Tuple[int, float]:
+    """Last index j of points i..j on circle c turning one way in small steps, and the sweep."""
+    j, sweep, sign = i, 0.0, 0.0
+    while j + 1 < len(pts) and _on_circle(pts[j + 1], c):
+        step = cmath.phase((pts[j + 1] - c.centre) / (pts[j] - c.centre))
+        if abs(step) > MAX_ARC_STEP or step == 0.0 or (sign and math.copysign(1.0, step) != sign) \
+                or abs(sweep + step) > 2 * math.pi + 1e-9:
+            break
+        sign = math.copysign(1.0, step)
+        sweep += step
+        j += 1
+    return j, sweep
+
+
+def split_arcs(pts: Sequence[complex], circles: Sequence[Circle]) -> list:
+    """A polyline as plotter_shapes Arcs where its points follow a circle, and lists of the
+    points between them (each list at least two points, sharing its ends with its neighbours)."""
+    from plotter_shapes.geometry import Arc
+    pts = [complex(p) for k, p in enumerate(pts) if k == 0 or p != pts[k - 1]]
+    pieces: list = []
+    run: List[complex] = [pts[0]] if pts else []
+    i = 0
+    while i + 1 < len(pts):
+        best = (i, 0.0, None)
+        for c in circles:
+            if c.radius >= MIN_ARC_RADIUS_MM and _on_circle(pts[i], c):
+                j, sweep = _arc_run(pts, i, c)
+                if j - i >= 3 and j > best[0]:
+                    best = (j, sweep, c)
+        j, sweep, c = best
+        if c is None:
+            run.append(pts[i + 1])
+            i += 1
+            continue
+        a = pts[i]
+        full = abs(abs(sweep) - 2 * math.pi) < 1e-6
+        end = a if full else pts[j]
+        # the end exactly on the start's radius, so the arc is consistent to the last bit
+        end = c.centre + (end - c.centre) * (abs(a - c.centre) / abs(end - c.centre))
+        if len(run) >= 2:
+            pieces.append(run)
+        pieces.append(Arc(a.real, a.imag, end.real, end.imag, c.centre.real, c.centre.imag, sweep < 0))
+        pts[j] = end
+        run = [end]
+        i = j
+    if len(run) >= 2:
+        pieces.append(run)
+    return pieces
+
+
+def to_figure(d: Drawing, name: str = ""):
+    """The drawing as a plotter_shapes Figure, one stroke per polyline: arcs where it follows
+    a circle of the input, lines elsewhere, simplified by vpype (linesimplify)."""
+    import vpype as vp
+    import vpype_cli
+    from plotter_shapes.geometry import Figure, Line, Stroke
+    split = [split_arcs(list(line), d.circles) for line in d.lines]
+    runs = [piece for pieces in split for piece in pieces if isinstance(piece, list)]
+    if runs:
+        doc = vpype_cli.execute(f"linesimplify --tolerance {SIMPLIFY_MM}",
+                                vp.Document(vp.LineCollection([np.array(r) for r in runs])))
+        simplified = iter([list(line) for line in doc.layers[1]])
+        assert len(doc.layers[1]) == len(runs)
+    strokes = []
+    for pieces in split:
+        segs: list = []
+        for piece in pieces:
+            if isinstance(piece, list):
+                pts = next(simplified)
+                segs += [Line(a.real, a.imag, b.real, b.imag) for a, b in zip(pts, pts[1:]) if a != b]
+            else:
+                segs.append(piece)
+        if segs:
+            strokes.append(Stroke(tuple(segs)))
+    if not strokes:
+        raise VectorError("the drawing has no paths")
+    return Figure(tuple(strokes), name)
+
+
+def drawing_program(d: Drawing, placement: Placement, units_per_mm: float, feed: float,
+                    name: str, optimize_paths: bool = False) -> List[str]:
+    """G-code for a drawing: placed, optionally merged and sorted, arcs kept, lines simplified."""
+    from plotter_shapes.geometry import figure_to_gcode
+    placed = place(d, placement, units_per_mm)
+    if optimize_paths:
+        placed = optimize(placed)
+    return figure_to_gcode(to_figure(placed, name), feed, name)
+
+
+def svg_program(path: str, placement: Placement = Placement(), feed: float = 1500.0,
+                optimize_paths: bool = False) -> List[str]:
+    """G-code that draws an SVG file."""
+    return drawing_program(read_svg(path), placement, PX_PER_MM, feed, path, optimize_paths)
