@@ -228,7 +228,8 @@ def mock_runs(args, programs: Sequence[Program], cases: Sequence[LinkCase], limi
     from rosgraph import BenchGraph, position_latencies, segment_end_times
     links: List[LinkRow] = []
     hosts: List[HostRow] = []
-    work = Path(tempfile.mkdtemp(prefix="plotter-bench-"))
+    tmp = tempfile.TemporaryDirectory(prefix="plotter-bench-")   # step traces: tens of MB
+    work = Path(tmp.name)
 
     def host_row(label: str, runs) -> HostRow:
         row = HostRow(label)
@@ -292,6 +293,7 @@ def mock_runs(args, programs: Sequence[Program], cases: Sequence[LinkCase], limi
                 draw[prog.name].mock_exp_underruns = r.underruns
         finally:
             graph.close()
+    tmp.cleanup()
     return links, hosts
 
 
