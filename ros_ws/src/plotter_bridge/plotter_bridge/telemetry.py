@@ -1,14 +1,15 @@
 """What the serial bridge tells RViz and the diagnostics tools.
 
 The bridge hands every status report of the board to ``BridgeTelemetry``
-(and says when the serial link is lost); from those it publishes, in the
-bridge's namespace:
+(and says when the serial link is lost) from its I/O thread, which only
+keeps them; two timers of the bridge's node publish, in its namespace:
 
 - ``path`` (nav_msgs/Path): every position the board reported, the pen's
   trajectory so far;
 - ``planned_path`` (nav_msgs/Path, transient local): the moves of the job
   being streamed, from its board commands;
-- ``pen`` (visualization_msgs/Marker): the pen, red when down, grey when up;
+- ``pen`` (visualization_msgs/Marker, 4 times a second): the pen, red when
+  down, grey when up;
 - ``ink`` (visualization_msgs/Marker, line list): the pen-down part of the
   trajectory, what is on the paper;
 - ``/diagnostics`` (diagnostic_msgs/DiagnosticArray, once a second, as
@@ -29,8 +30,8 @@ from dataclasses import dataclass, field, replace
 from typing import Callable, Iterable, List, Optional, Sequence, Tuple
 
 MM = 0.001                      # metres per mm
-MAX_PATH_POSES = 20000          # older poses are thinned out beyond this
-PUBLISH_PERIOD = 0.2            # s between path/ink messages while moving
+MAX_PATH_POSES = 5000           # older poses are thinned out beyond this
+PUBLISH_PERIOD = 0.25           # s between pen, path and ink messages (when they changed)
 STALE_AFTER = 1.0               # s without a status report: WARN
 ARC_STEP = 0.1                  # rad between points of an arc in the planned path
 
@@ -229,16 +230,19 @@ class BridgeTelemetry:
         self._lock = threading.Lock()
         self._diag_lock = threading.Lock()
         self._samples: List[Sample] = []
-        self._last_publish = -math.inf
+        self._changed = False
+        self._planned: Optional[tuple] = None
         self._job = None
         self._snap = BridgeSnapshot(port=port)
         self._last_status_t: Optional[float] = None
         self._reported = BridgeSnapshot()          # counters at the previous diagnostics message
         self._prefix = node.get_fully_qualified_name().lstrip("/")
-        self._timer = node.create_timer(1.0, self.publish_diagnostics)
+        self._timers = (node.create_timer(1.0, self.publish_diagnostics),
+                        node.create_timer(PUBLISH_PERIOD, self.publish_motion))
 
     # --- hooks called by the bridge (its I/O thread) ---------------------------------
     def on_status(self, st, stats, firmware: str = "", last_error: str = "", job=None) -> None:
+        """A status report (the bridge's I/O thread): only bookkeeping, the timers publish."""
         now = self.clock()
         sample = Sample(now, st.x, st.y, bool(st.pen_down))
         with self._lock:
@@ -251,21 +255,28 @@ class BridgeTelemetry:
                                  firmware=firmware, last_error=last_error,
                                  counters=LinkCounters.of(stats))
             self._last_status_t = now
-            moved = prev is None or (prev.x, prev.y, prev.pen_down) != (sample.x, sample.y, sample.pen_down)
-            if moved:
-                self._samples = thin(self._samples + [sample])
-            new_job = job is not None and job is not self._job and getattr(job, "commands", None)
-            if new_job:
+            if prev is None or (prev.x, prev.y, prev.pen_down) != (sample.x, sample.y, sample.pen_down):
+                self._samples.append(sample)
+                if len(self._samples) > MAX_PATH_POSES:
+                    self._samples = thin(self._samples)
+                self._changed = True
+            if job is not None and job is not self._job and getattr(job, "commands", None):
                 self._job = job
-            samples = self._samples
-            due = moved and (now - self._last_publish >= PUBLISH_PERIOD or st.state == "Idle")
-            if due or (prev is not None and prev.pen_down != sample.pen_down):
-                self._last_publish = now
-        if new_job:
-            self._publish_planned([c.text for c in job.commands], (st.x, st.y), bool(st.pen_down),
-                                  getattr(job, "expected_end", None))
-        self._publish_pen(sample)
-        if due:
+                self._planned = ([c.text for c in job.commands], (st.x, st.y), bool(st.pen_down),
+                                 getattr(job, "expected_end", None))
+
+    def publish_motion(self) -> None:
+        """Timer: the pen, path and ink when the pen moved, the planned path of a new job."""
+        with self._lock:
+            last = self._samples[-1] if self._samples else None
+            samples = list(self._samples) if self._changed else None
+            planned, self._planned = self._planned, None
+            self._changed = False
+        if planned is not None:
+            self._publish_planned(*planned)
+        if last is not None:
+            self._publish_pen(last)
+        if samples:
             self._publish_trace(samples)
 
     def on_link_lost(self, reason: str) -> None:
