@@ -87,3 +87,18 @@ def test_lookahead_draws_the_same_path_in_far_less_board_time():
     t_stop, end_stop = board_time(stopping)
     assert end_plan == end_stop
     assert t_plan < 0.5 * t_stop, (t_plan, t_stop)
+
+
+def test_board_leaves_each_command_no_faster_than_planned():
+    """The firmware's ramp must not climb to a level it cannot brake down from:
+    a short line planned to leave at 850 steps/s takes the corner at most one
+    ramp level (200 steps/s) faster."""
+    from plotter_bridge.firmware_core import CYCLES_PER_S
+    core = FirmwareCore(host_library())
+    assert core.plan_line(160, 0, 8000, 850) == 0
+    assert core.plan_line(0, 160, 8000, 0) == 0
+    steps = core.run_steps()
+    core.close()
+    rates = [CYCLES_PER_S / s.cycles for s in steps]
+    assert max(rates[158:162]) <= 850 + 200 + 1
+    assert rates[-1] <= 250 + 200 + 1

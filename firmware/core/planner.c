@@ -97,7 +97,7 @@ static uint8_t plan_motion(void)
     if (plan_arg[PLAN_FEED] < FEED_MIN) plan_arg[PLAN_FEED] = FEED_MIN;
     if (plan_arg[PLAN_FEED] > top) plan_arg[PLAN_FEED] = top;
     if (plan_arg[PLAN_EXIT] > plan_arg[PLAN_FEED]) plan_arg[PLAN_EXIT] = plan_arg[PLAN_FEED];
-    plan.cruise_period = HAL_PERIOD(CYCLES_PER_S / plan_arg[PLAN_FEED]);
+    plan.cruise_period = HAL_PERIOD((CYCLES_PER_S + plan_arg[PLAN_FEED] / 2) / plan_arg[PLAN_FEED]);  /* rounded */
     plan.cruise = level_for_rate(plan_arg[PLAN_FEED]);
     plan.exit = level_for_rate(plan_arg[PLAN_EXIT]);
     return commit();

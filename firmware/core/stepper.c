@@ -389,13 +389,25 @@ ramp:
         /* Climb towards the cruise level. */
         st_brake_at--;
         if (--st_level_left == 0) {
+            /* Here st_brake_at counts the levels between this one and the
+             * exit: the steps braking needs once this level is done (at the
+             * exit level itself it is minus that level's hold, so the sums
+             * are taken modulo 2^16 as the 8051 does). */
             st_level_left = HOLD_STEPS(st_level);
-            st_below += st_level_left;
+            if (st_level < st_seg.exit ||
+                st_seg.steps >= (uint16_t)(st_brake_at + st_level_left + HOLD_STEPS(st_level + 1))) {
+                /* Room to brake from the next level too: climb. */
+                st_brake_at += st_level_left;
+                st_below += st_level_left;
+                st_level++;
+                st_level_left = HOLD_STEPS(st_level);
+                st_stale = 1;
+            } else if (st_seg.steps <= st_brake_at) {
+                st_level_left = 1;           /* no step to spare: brake at once */
+            } else if (st_seg.steps - st_brake_at < st_level_left) {
+                st_level_left = st_seg.steps - st_brake_at;   /* stay only while braking still arrives */
+            }
             st_brake_at += st_level_left;
-            st_level++;
-            st_level_left = HOLD_STEPS(st_level);
-            st_brake_at += st_level_left;
-            st_stale = 1;
         }
     } else {
         /* Cruise at the commanded feed until the braking point (never, if
