@@ -49,6 +49,7 @@ from .gcode_limits import WorkArea
 from .gcode_types import GCodeError
 from .journal import (DONE, INTERRUPTED, RUNNING, Journal, JobRecord, Progress, default_journal_dir,
                       resume_commands)
+from .machine_params import declare_machine
 from .program import MAX_PROGRAM_BYTES, StreamerConfig, compile_program
 
 DEFAULT_NAMESPACE = "/plotter"   # `-r __ns:=/plotter2` runs a second plotter beside it
@@ -82,7 +83,6 @@ class GCodeStreamer(Node):
     def __init__(self, *, namespace: str = DEFAULT_NAMESPACE, **kwargs) -> None:
         super().__init__("gcode_streamer", namespace=namespace, **kwargs)
         d = ParameterDescriptor
-        self.declare_parameter("steps_per_mm", 80.0, d(description="motor steps per millimetre, both axes"))
         self.declare_parameter("rapid_feed", 6000.0, d(description="G0 travel rate, mm/min"))
         self.declare_parameter("x_min", 0.0, d(description="work area, mm from the power-on origin"))
         self.declare_parameter("x_max", 200.0, d(description="work area, mm"))
@@ -91,6 +91,8 @@ class GCodeStreamer(Node):
         self.declare_parameter("acceleration", 1000.0, d(description="maximum acceleration, mm/s^2 (within the firmware's ramp)"))
         self.declare_parameter("junction_deviation", 0.05, d(description="corner rule of the look-ahead planner, mm"))
         self.declare_parameter("lookahead", True, d(description="plan speeds across commands; false stops at every command"))
+        self.declare_parameter("tolerance", 0.1, d(description="hanging machine: largest pen deviation from the programmed path, mm"))
+        self.machine = declare_machine(self)
         self.declare_parameter("journal_dir", "", d(description="directory of the job journal ('' = $ROS_HOME/plotter_journal)"))
         self.declare_parameter("lease", 2.0, d(description="seconds the bridge goes on with a job after this node stops renewing it"))
         self.config = self._read_config()
@@ -121,16 +123,17 @@ class GCodeStreamer(Node):
     def _read_config(self) -> StreamerConfig:
         g = lambda n: float(self.get_parameter(n).value)  # noqa: E731
         names = ("steps_per_mm", "rapid_feed", "x_min", "x_max", "y_min", "y_max",
-                 "acceleration", "junction_deviation")
+                 "acceleration", "junction_deviation", "tolerance")
         v = dict(zip(names, (g(n) for n in names)))
         if not all(math.isfinite(x) for x in v.values()) or v["steps_per_mm"] <= 0 or v["rapid_feed"] <= 0 \
                 or v["x_min"] >= v["x_max"] or v["y_min"] >= v["y_max"] or v["acceleration"] <= 0 \
-                or v["junction_deviation"] < 0:
+                or v["junction_deviation"] < 0 or v["tolerance"] <= 0:
             raise ValueError(f"bad gcode_streamer parameters: {v}")
         return StreamerConfig(v["steps_per_mm"], v["rapid_feed"],
                               WorkArea(v["x_min"], v["x_max"], v["y_min"], v["y_max"]),
                               v["acceleration"], v["junction_deviation"],
-                              bool(self.get_parameter("lookahead").value))
+                              bool(self.get_parameter("lookahead").value),
+                              self.machine.kind, self.machine.hanging, v["tolerance"])
 
     def _on_state(self, msg: BoardState) -> None:
         with self._board_changed:

@@ -65,6 +65,32 @@ class HangingGeometry:
         return (x1 + along * ux + h * uy, y1 + along * uy - h * ux)
 
 
+MACHINES = ("cartesian", "hanging")
+
+
+@dataclass(frozen=True)
+class Machine:
+    """Which machine the board drives, for turning its motor counts into the
+    pen's position and back."""
+    kind: str = "cartesian"
+    steps_per_mm: float = 80.0                     # cartesian: steps per mm of each axis
+    hanging: HangingGeometry = HangingGeometry()
+
+    def __post_init__(self) -> None:
+        if self.kind not in MACHINES:
+            raise ValueError(f"machine must be one of {', '.join(MACHINES)}, not {self.kind!r}")
+
+    def pen_mm(self, motor: Point) -> Point:
+        if self.kind == "hanging":
+            return self.hanging.forward(motor)
+        return (motor[0] / self.steps_per_mm, motor[1] / self.steps_per_mm)
+
+    def motor_steps(self, pen: Point) -> Point:
+        if self.kind == "hanging":
+            return self.hanging.inverse(pen)
+        return (pen[0] * self.steps_per_mm, pen[1] * self.steps_per_mm)
+
+
 def motor_pieces(path: Callable[[float], Point], geometry: HangingGeometry,
                  tolerance: float) -> List[float]:
     """Parameters 0 = t_0 < t_1 < ... = 1 cutting path (a function of t in [0, 1]

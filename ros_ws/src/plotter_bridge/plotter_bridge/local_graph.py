@@ -10,7 +10,7 @@ import tempfile
 import threading
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Callable, Optional
+from typing import Callable, Optional, Tuple
 
 import rclpy
 from rclpy.action import ActionClient
@@ -22,6 +22,7 @@ from plotter_interfaces.action import RunProgram
 
 from .faults import FaultSpec
 from .gcode_streamer_node import GCodeStreamer
+from .kinematics import Machine
 from .mock_board import MockBoard, MockBoardConfig
 from .serial_bridge_node import SerialBridge
 
@@ -39,6 +40,8 @@ class GraphOptions:
     faults: FaultSpec = field(default_factory=FaultSpec)   # mock board: faults on its serial line
     seq_log: str = ""              # mock board: sequence numbers of the commands started
     journal_dir: str = ""          # streamer's job journal ('' = the default)
+    machine: str = "cartesian"     # or "hanging" (seed 003; the geometry's defaults)
+    area: Optional[Tuple[float, float, float, float]] = None   # work area x_min, x_max, y_min, y_max (mm)
 
 
 @dataclass
@@ -63,15 +66,20 @@ class LocalGraph:
             self._tmp = tempfile.TemporaryDirectory(prefix="plotter-mock-")
             port = str(Path(self._tmp.name) / "board")
             self.board = MockBoard(MockBoardConfig(baud=options.baud, trace=options.trace, link=port,
-                                                   seq_log=options.seq_log, faults=options.faults))
+                                                   seq_log=options.seq_log, faults=options.faults,
+                                                   machine=Machine(options.machine, options.steps_per_mm)))
             self.board.start()
         if not port:
             raise ValueError("no port given (use --port PORT or --mock)")
-        spm = Parameter("steps_per_mm", value=float(options.steps_per_mm))
+        machine = [Parameter("steps_per_mm", value=float(options.steps_per_mm)),
+                   Parameter("machine", value=options.machine)]
         self.bridge = SerialBridge(namespace=options.namespace, context=self._context,
                                    parameter_overrides=[Parameter("port", value=port),
-                                                        Parameter("baud", value=int(options.baud)), spm])
-        streamer_params = [spm]
+                                                        Parameter("baud", value=int(options.baud)), *machine])
+        streamer_params = list(machine)
+        if options.area is not None:
+            streamer_params += [Parameter(name, value=float(v)) for name, v in
+                                zip(("x_min", "x_max", "y_min", "y_max"), options.area)]
         if options.journal_dir:
             streamer_params.append(Parameter("journal_dir", value=options.journal_dir))
         self.streamer = GCodeStreamer(namespace=options.namespace, context=self._context,

@@ -33,6 +33,7 @@ from typing import IO, Optional
 
 from .faults import FaultCounts, FaultSpec, FaultyChannel
 from .firmware_core import CYCLES_PER_S, FirmwareCore
+from .kinematics import Machine
 
 
 @dataclass
@@ -43,6 +44,7 @@ class MockBoardConfig:
     speed: float = 1.0             # board time per wall time (tests may run faster)
     seq_log: str = ""              # file of the sequence numbers of the commands started
     faults: FaultSpec = FaultSpec()
+    machine: Machine = Machine()   # the trace is in pen coordinates: pen mm * steps_per_mm
 
 
 class MockBoard:
@@ -236,7 +238,14 @@ class MockBoard:
                 self.steps += 1
                 if self._trace:
                     x, y = core.position
-                    self._trace.write(f"{self.board_time:.6f},{x},{y}\n")
+                    if self.config.machine.kind != "cartesian":
+                        # Pen position by forward kinematics, in the trace's units.
+                        m = self.config.machine
+                        px, py = m.pen_mm((x, y))
+                        self._trace.write(f"{self.board_time:.6f},{px * m.steps_per_mm:.3f},"
+                                          f"{py * m.steps_per_mm:.3f}\n")
+                    else:
+                        self._trace.write(f"{self.board_time:.6f},{x},{y}\n")
                     self._trace_dirty = True
             if budget % 64 == 0:
                 core.poll()

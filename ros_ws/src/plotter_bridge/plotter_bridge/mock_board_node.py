@@ -24,6 +24,7 @@ from std_msgs.msg import String
 from std_srvs.srv import Trigger
 
 from .faults import parse_faults
+from .machine_params import declare_machine
 from .mock_board import MockBoard, MockBoardConfig
 
 DEFAULT_NAMESPACE = "/plotter"
@@ -42,11 +43,13 @@ class MockBoardNode(Node):
                                                            "drop=0.01,corrupt=0.01,dup=0.001,delay=0.001,"
                                                            "seed=1,unplug_at=STEPS,unplug_for=S,reset_at=STEPS"))
         self.declare_parameter("unplug_for", 2.0, d(description="seconds the port stays away on ~/unplug"))
+        machine = declare_machine(self)
         config = MockBoardConfig(baud=int(self.get_parameter("baud").value),
                                  link=str(self.get_parameter("link").value),
                                  trace=str(self.get_parameter("trace").value),
                                  seq_log=str(self.get_parameter("seq_log").value),
-                                 faults=parse_faults(str(self.get_parameter("faults").value)))
+                                 faults=parse_faults(str(self.get_parameter("faults").value)),
+                                 machine=machine)
         if config.baud <= 0:
             raise ValueError("baud must be positive")
         self.board = MockBoard(config)

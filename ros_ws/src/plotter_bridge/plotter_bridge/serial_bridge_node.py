@@ -18,6 +18,7 @@ from __future__ import annotations
 import math
 import threading
 import time
+from dataclasses import replace
 from typing import List, Optional
 
 import rclpy
@@ -34,6 +35,7 @@ from std_srvs.srv import Trigger
 from plotter_interfaces.action import StreamCommands
 from plotter_interfaces.msg import BoardState
 
+from .machine_params import declare_machine
 from .board_session import DISCONNECTED, QUEUE_SIZE, BoardSession, Job, SessionConfig
 from .protocol import Status
 from .telemetry import BridgeTelemetry
@@ -76,14 +78,12 @@ class SerialBridge(Node):
         d = ParameterDescriptor
         self.declare_parameter("port", "/dev/ttyUSB0", d(description="serial port or any pyserial URL (socket://host:port, a pty path)"))
         self.declare_parameter("baud", 115200, d(description="baud rate"))
-        self.declare_parameter("steps_per_mm", 80.0, d(description="motor steps per millimetre, both axes"))
         self.declare_parameter("status_hz", 25.0, d(description="status polls per second (position topic rate)"))
         self.declare_parameter("ack_timeout", 0.5, d(description="seconds without acknowledgement before resending"))
         self.declare_parameter("reconnect_timeout", 30.0, d(description="seconds a job waits for a vanished port before it is aborted"))
         self.declare_parameter("frame_id", "plotter", d(description="frame of the position topic"))
-        self.steps_per_mm = float(self.get_parameter("steps_per_mm").value)
-        if not (math.isfinite(self.steps_per_mm) and self.steps_per_mm > 0):
-            raise ValueError("steps_per_mm must be positive")
+        self.machine = declare_machine(self)
+        self.steps_per_mm = self.machine.steps_per_mm
         self.frame_id = str(self.get_parameter("frame_id").value)
         hz = float(self.get_parameter("status_hz").value)
         config = SessionConfig(ack_timeout=float(self.get_parameter("ack_timeout").value),
@@ -134,8 +134,7 @@ class SerialBridge(Node):
         p = PointStamped()
         p.header.stamp = stamp
         p.header.frame_id = self.frame_id
-        p.point.x = st.x / self.steps_per_mm
-        p.point.y = st.y / self.steps_per_mm
+        p.point.x, p.point.y = self.machine.pen_mm((st.x, st.y))
         self.pub_position.publish(p)
         s = self._state_msg(STATE_CODES.get(st.state, BoardState.IDLE))
         s.header.stamp = stamp
@@ -144,6 +143,9 @@ class SerialBridge(Node):
         s.pen_down = st.pen_down
         s.queue_free = st.queue_free
         self.pub_state.publish(s)
+        if self.machine.kind != "cartesian":
+            # Telemetry draws in the trace's units: the pen's mm times steps_per_mm.
+            st = replace(st, x=p.point.x * self.steps_per_mm, y=p.point.y * self.steps_per_mm)
         self._telemetry.on_status(st, self.session.link.stats, self.session.firmware,
                                   self.session.last_error, self.session.job)
 
@@ -154,7 +156,7 @@ class SerialBridge(Node):
             st = self.session.link.status if self.session.link else None
             if st is not None:         # the last position the board reported
                 s.x_steps, s.y_steps = st.x, st.y
-                s.x_mm, s.y_mm = st.x / self.steps_per_mm, st.y / self.steps_per_mm
+                s.x_mm, s.y_mm = self.machine.pen_mm((st.x, st.y))
             self.pub_state.publish(s)
 
     def _state_msg(self, state: int) -> BoardState:
@@ -237,7 +239,7 @@ class SerialBridge(Node):
         st = self.session.link.status if self.session.link else None
         if st is None:
             return 0.0, 0.0
-        return st.x / self.steps_per_mm, st.y / self.steps_per_mm
+        return self.machine.pen_mm((st.x, st.y))
 
     # --- services ---------------------------------------------------------------
     def _realtime(self, what: str, response):

@@ -1,0 +1,67 @@
+"""The hanging plotter (seed 003) end to end through the node graph on the mock board:
+each node a process with `machine:=hanging`, a 50 cm circle from G-code, the
+trace and /plotter/position in pen coordinates."""
+import math
+import random
+import threading
+
+import pytest
+
+from ros_graph import PlotterGraph, Probe, wait_until
+
+pytestmark = pytest.mark.ros
+
+STEPS_PER_MM = 80.0
+
+
+def test_hanging_circle_through_the_graph_stays_within_a_tenth_of_a_millimetre(tmp_path):
+    from action_msgs.msg import GoalStatus
+    from geometry_msgs.msg import PointStamped
+    from rclpy.action import ActionClient
+    from plotter_interfaces.action import RunProgram
+
+    domain = random.SystemRandom().randint(110, 200)
+    hanging = ("-p", "machine:=hanging")
+    area = ("-p", "x_max:=800.0", "-p", "y_max:=1000.0")
+    graph = PlotterGraph(domain, tmp_path, board_args=hanging, bridge_args=hanging,
+                         streamer_args=hanging + area)
+    probe = Probe(domain)
+    positions = []
+    lock = threading.Lock()
+
+    def on_position(m):
+        with lock:
+            positions.append((m.point.x, m.point.y))
+    probe.node.create_subscription(PointStamped, "position", on_position, 50)
+    try:
+        client = ActionClient(probe.node, RunProgram, "run_program")
+        assert client.wait_for_server(timeout_sec=60)
+        program = "G21 G90\nG0 X650 Y500\nM3\nG2 X650 Y500 I-250 J0 F6000\nM5\nM2\n"
+        send = client.send_goal_async(RunProgram.Goal(program=program, name="hanging circle"))
+        wait_until(send.done, 30, "goal acceptance")
+        res = send.result().get_result_async()
+        wait_until(res.done, 240, "the circle")
+        result = res.result()
+        assert result.status == GoalStatus.STATUS_SUCCEEDED, result.result.message
+        assert result.result.x_mm == pytest.approx(650.0, abs=0.05)
+        assert result.result.y_mm == pytest.approx(500.0, abs=0.05)
+        pen = [(x / STEPS_PER_MM, y / STEPS_PER_MM) for _, x, y in read_trace_floats(graph.trace)]
+        start = next(k for k, p in enumerate(pen) if math.hypot(p[0] - 650, p[1] - 500) < 0.05)
+        worst = max(abs(math.hypot(x - 400, y - 500) - 250) for x, y in pen[start:])
+        assert worst <= 0.1, worst
+        with lock:
+            assert positions and math.hypot(positions[-1][0] - 650, positions[-1][1] - 500) < 0.05
+        client.destroy()
+    except BaseException:
+        print(graph.outputs())
+        raise
+    finally:
+        probe.close()
+        graph.close()
+
+
+def read_trace_floats(path):
+    with open(path) as f:
+        rows = [line.strip().split(",") for line in f]
+    assert rows[0] == ["t_s", "x_steps", "y_steps"]
+    return [(float(t), float(x), float(y)) for t, x, y in rows[1:]]
