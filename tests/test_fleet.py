@@ -2,7 +2,8 @@
 
 - Two plotters at once: /plotter1 and /plotter2, each its own mock board,
   serial_bridge, gcode_streamer and shape_server (all processes, one ROS
-  domain), draw different figures at the same time.
+  domain), draw different figures at the same time (one `draw` action goal
+  each, as `ros2 action send_goal` would send it).
 - Two hosts: the board side (mock board and serial_bridge) in one network
   namespace, the shape_server, gcode_streamer and a client in another, joined
   by a veth pair on a private /30; DDS discovery and every topic and action
@@ -35,6 +36,8 @@ FIGURES = {"/plotter1": dict(shape="star", x=70.0, y=70.0, size=40.0),
 def test_two_plotters_draw_different_figures_at_once(tmp_path):
     from diagnostic_msgs.msg import DiagnosticArray
     from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
+    from rclpy.action import ActionClient
+    from plotter_interfaces.action import DrawShape
     from plotter_interfaces.msg import BoardState, ShapeGoal
     from plotter_shapes.geometry import build_shape
 
@@ -48,22 +51,22 @@ def test_two_plotters_draw_different_figures_at_once(tmp_path):
     states = {ns: [] for ns in FIGURES}
     diagnostics = set()
     latched = QoSProfile(depth=1, reliability=ReliabilityPolicy.RELIABLE, durability=DurabilityPolicy.TRANSIENT_LOCAL)
-    pubs = {}
+    clients = {}
     for ns in FIGURES:
         def on_state(m, ns=ns):
             with lock:
                 states[ns].append((time.monotonic(), m.state, m.queue_free))
         probe.node.create_subscription(BoardState, ns + "/state", on_state, latched)
-        pubs[ns] = probe.node.create_publisher(ShapeGoal, ns + "/shape", 10)
+        clients[ns] = ActionClient(probe.node, DrawShape, ns + "/draw")
     probe.node.create_subscription(DiagnosticArray, "/diagnostics",
                                    lambda m: diagnostics.update(s.name for s in m.status), 10)
     try:
         for ns in FIGURES:
             wait_until(lambda: any(s[1] == BoardState.IDLE for s in states[ns]), 60, f"{ns}/state")
-            wait_until(lambda: pubs[ns].get_subscription_count() > 0, 30, f"{ns}/shape_server")
+            assert clients[ns].wait_for_server(timeout_sec=30), f"{ns}/draw"
         t0 = time.monotonic()
-        for ns, fig in FIGURES.items():
-            pubs[ns].publish(ShapeGoal(**fig))
+        goals = {ns: clients[ns].send_goal_async(DrawShape.Goal(shape=ShapeGoal(**fig)))
+                 for ns, fig in FIGURES.items()}
 
         def running_interval(ns):
             with lock:
@@ -73,7 +76,12 @@ def test_two_plotters_draw_different_figures_at_once(tmp_path):
                 return None
             rest = [s[0] for s in after if s[0] > run[0] and s[1] == BoardState.IDLE and s[2] == 6]
             return (run[0], rest[0]) if rest else None
-        wait_until(lambda: all(running_interval(ns) for ns in FIGURES), 120, "both plotters to finish")
+        wait_until(lambda: all(g.done() for g in goals.values()), 30, "the goals to be accepted")
+        results = {ns: g.result().get_result_async() for ns, g in goals.items()}
+        wait_until(lambda: all(r.done() for r in results.values()), 120, "both drawings")
+        assert all(r.result().result.success for r in results.values()), \
+            [r.result().result.message for r in results.values()]
+        wait_until(lambda: all(running_interval(ns) for ns in FIGURES), 10, "both plotters at rest")
         (a0, a1), (b0, b1) = (running_interval(ns) for ns in FIGURES)
         assert max(a0, b0) < min(a1, b1), "the two plotters did not draw at the same time"
         for ns, fig in FIGURES.items():

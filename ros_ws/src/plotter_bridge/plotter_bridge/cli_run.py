@@ -124,7 +124,7 @@ def write_pictures(args: argparse.Namespace, text: str, name: str, start: tuple,
                    trace_path: str, samples: List[tuple], err: TextIO) -> None:
     """--svg/--png: what was drawn (the mock's step trace, else reported positions) over the program."""
     from .picture import program_polylines, runs_by_pen, runs_near_path, write_picture
-    programmed = program_polylines(text, start)
+    programmed = program_polylines(text, start) if text else []
     if trace_path:
         from .node_processes import read_trace
         spm = args.steps_per_mm
@@ -140,37 +140,49 @@ def write_pictures(args: argparse.Namespace, text: str, name: str, start: tuple,
 def run_program_text(text: str, name: str, args: argparse.Namespace,
                      out: TextIO = sys.stdout, err: TextIO = sys.stderr) -> int:
     from .gcode import parse
+    resume_id = getattr(args, "resume_id", "")
     try:
-        parse(text)           # syntax first; the work area is checked from the pen's real position
+        if not resume_id:
+            parse(text)       # syntax first; the work area is checked from the pen's real position
     except GCodeError as exc:
         err.write(f"{name}:{exc}\n")
         return EXIT_BAD_PROGRAM
-    if (args.png and Path(args.png).suffix.lower() != ".png") or \
-            (args.svg and Path(args.svg).suffix.lower() != ".svg"):
+    svg_out, png_out = getattr(args, "svg", ""), getattr(args, "png", "")
+    if (png_out and Path(png_out).suffix.lower() != ".png") or \
+            (svg_out and Path(svg_out).suffix.lower() != ".svg"):
         err.write("--svg takes an .svg file, --png a .png file\n")
         return EXIT_BAD_PROGRAM
-    from .local_graph import GraphOptions, LocalGraph
-    pictures = bool(args.svg or args.png)
-    trace = args.trace
+    from dataclasses import replace
+    from .local_graph import LocalGraph
+    try:
+        options = _graph_options(args)
+    except ValueError as exc:
+        err.write(f"{exc}\n")
+        return EXIT_BAD_PROGRAM
+    pictures = bool(svg_out or png_out)
     with tempfile.TemporaryDirectory(prefix="plotter-") as tmp:
-        if pictures and args.mock and not trace:
-            trace = str(Path(tmp) / "trace.csv")
-        options = GraphOptions(port=args.port or "", mock=args.mock, baud=args.baud,
-                               steps_per_mm=args.steps_per_mm, trace=trace,
-                               namespace=args.namespace)
+        if pictures and options.mock and not options.trace:
+            options = replace(options, trace=str(Path(tmp) / "trace.csv"))
         bar = None if args.quiet else ProgressBar(text.count("\n") + 1, err)
         with LocalGraph(options) as graph:
             recorder = StateRecorder(graph.client_node) if pictures else None
             start = recorder.start() if recorder else (0.0, 0.0)
-            result = graph.run_program(text, name, progress=bar)
+            result = graph.run_program(text, name, progress=bar, resume=resume_id)
+            report = reliability_report(graph) if options.mock and (args.faults or args.seq_log) else ""
         if bar:
             bar.close(result.success)
+        if report:
+            err.write(report + "\n")
         if pictures:
-            write_pictures(args, text, name, start, trace if args.mock else "", recorder.samples, err)
+            write_pictures(args, "" if resume_id else text, name, start,
+                           options.trace if options.mock else "", recorder.samples, err)
     if result.success:
         out.write(f"{name}: done, pen at X{result.x_mm:.3f} Y{result.y_mm:.3f} mm\n")
         return EXIT_OK
     err.write(f"{name}: {result.message}\n")
+    if result.job_id:
+        err.write(f"to finish it from where it stopped: plotter resume {result.job_id} "
+                  f"{'--mock' if args.mock else '--port ' + args.port}\n")
     return EXIT_FAILED
 
 
