@@ -77,3 +77,14 @@ def test_out_of_area_program_is_refused_before_motion(tmp_path):
     assert r.returncode == 1
     assert "line 3" in r.stderr and "work area" in r.stderr
     assert read_trace(trace) == []
+
+
+def test_stream_on_the_hanging_machine(tmp_path):
+    program = tmp_path / "hang.gcode"
+    program.write_text("G21 G90\nG0 X300 Y300\nM3\nG1 X500 Y300 F6000\nG3 X500 Y300 I-100 J0\nM5\nM2\n")
+    trace = tmp_path / "trace.csv"
+    r = plotter("stream", program, "--mock", "--machine", "hanging", "--trace", trace, "--quiet")
+    assert r.returncode == 0, r.stderr
+    rows = trace.read_text().splitlines()[1:]
+    x, y = (float(v) / 80 for v in rows[-1].split(",")[1:])   # pen mm times steps_per_mm
+    assert math.hypot(x - 500, y - 300) < 0.05

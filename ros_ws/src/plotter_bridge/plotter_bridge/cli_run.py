@@ -18,6 +18,7 @@ from .cli import EXIT_BAD_PROGRAM, EXIT_OK, Command, register
 from .gcode_types import GCodeError
 
 EXIT_FAILED = 1
+HANGING_AREA = (0.0, 800.0, 0.0, 1000.0)   # seed 003's board below its pulleys, mm
 DEFAULT_FEED = 1500.0      # mm/min for shapes drawn without --feed
 
 
@@ -39,6 +40,10 @@ def _connection_args(p: argparse.ArgumentParser) -> None:
     p.add_argument("--journal", metavar="DIR", default="",
                    help="job journal directory (default $ROS_HOME/plotter_journal)")
     p.add_argument("--namespace", default="/plotter", help="ROS namespace of the nodes (default /plotter)")
+    p.add_argument("--machine", choices=("cartesian", "hanging"), default="cartesian",
+                   help="kinematics: an XY table (default), or seed 003's hanging two-string plotter")
+    p.add_argument("--area", type=float, nargs=4, metavar=("X_MIN", "X_MAX", "Y_MIN", "Y_MAX"), default=None,
+                   help="work area in mm (default 0 200 0 200; hanging: 0 800 0 1000)")
     p.add_argument("--quiet", action="store_true", help="no progress bar")
     p.add_argument("--svg", metavar="OUT.svg", default="",
                    help="write a picture of what the board drew, the programmed path underneath")
@@ -55,7 +60,8 @@ def _graph_options(args: argparse.Namespace):
     return GraphOptions(port=args.port or "", mock=args.mock, baud=args.baud,
                         steps_per_mm=args.steps_per_mm, trace=args.trace,
                         namespace=args.namespace, faults=faults, seq_log=args.seq_log,
-                        journal_dir=args.journal)
+                        journal_dir=args.journal, machine=args.machine,
+                        area=tuple(args.area) if args.area else HANGING_AREA if args.machine == "hanging" else None)
 
 
 def reliability_report(graph) -> str:
