@@ -77,6 +77,8 @@ def main() -> int:
     try:
         wait_until(lambda: any(m.state == BoardState.IDLE for _, m in states), 60, "the board")
         wait_until(lambda: pub.get_subscription_count() > 0, 30, "shape_server")
+        # Programs are published once: the streamer must already be listening.
+        wait_until(lambda: node.count_subscribers("program") > 0, 30, "gcode_streamer")
         for fig in FIGURES:
             label = fig["shape"] + (" reversed" if fig.get("reverse") else "")
             print(f"drawing {label} at ({fig['x']:g}, {fig['y']:g}) mm", flush=True)

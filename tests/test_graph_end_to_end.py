@@ -105,6 +105,8 @@ def test_star_from_a_topic_message_is_drawn(graph):
     from plotter_shapes.geometry import build_shape
 
     wait_until(lambda: graph.shape_pub.get_subscription_count() > 0, 30, "shape_server subscription")
+    # shape_server publishes the program once: the streamer must already listen.
+    wait_until(lambda: graph.probe.node.count_subscribers("program") > 0, 30, "gcode_streamer subscription")
     t0 = time.monotonic()
     graph.shape_pub.publish(ShapeGoal(shape="star", size=40.0))
     wait_idle_after(graph, t0)
