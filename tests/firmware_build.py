@@ -1,4 +1,9 @@
-"""Builds the firmware's host library once per test session."""
+"""Builds the firmware's host library (and 8051 images) once per test session.
+
+Without arguments: the default build, firmware/build/.  With build options
+(firmware/Makefile, e.g. INTERP="dda" or DRIVE="phase3"), the build of
+those options in its own directory, firmware/build/<options>/.
+"""
 import subprocess
 from functools import lru_cache
 from pathlib import Path
@@ -6,8 +11,34 @@ from pathlib import Path
 REPO_ROOT = Path(__file__).resolve().parent.parent
 FIRMWARE = REPO_ROOT / "firmware"
 
+DEFAULTS = {"INTERP": "pbp", "DRIVE": "stepdir"}
+
+
+def build_dir(**options) -> Path:
+    """firmware/build/ or firmware/build/<options>/, as the Makefile names it."""
+    names = [options.get(k, v) for k, v in DEFAULTS.items()]
+    names = [n for n, default in zip(names, DEFAULTS.values()) if n != default]
+    return FIRMWARE / "build" / "-".join(names) if names else FIRMWARE / "build"
+
+
+def _make_args(options):
+    return [f"{k}={v}" for k, v in sorted(options.items()) if v != DEFAULTS.get(k)]
+
 
 @lru_cache(maxsize=None)
-def host_library() -> Path:
-    subprocess.run(["make", "-s", "-C", str(FIRMWARE), "build/libplotter_core.so"], check=True)
-    return FIRMWARE / "build" / "libplotter_core.so"
+def _build(target: str, options: tuple) -> Path:
+    opts = dict(options)
+    path = build_dir(**opts) / target
+    subprocess.run(["make", "-s", "-C", str(FIRMWARE), *_make_args(opts),
+                    str(path.relative_to(FIRMWARE))], check=True)
+    return path
+
+
+def host_library(**options) -> Path:
+    """libplotter_core.so of the default build, or of the given build options."""
+    return _build("libplotter_core.so", tuple(sorted(options.items())))
+
+
+def mcu_image(**options) -> Path:
+    """The 8051 image's base path (plotter, without .ihx) of the given build options."""
+    return _build("plotter.ihx", tuple(sorted(options.items()))).with_suffix("")

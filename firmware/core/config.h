@@ -23,6 +23,33 @@
 #define RT_RESET   0x18             /* Ctrl-X */
 #define RT_ESTOP   0x1B             /* ESC */
 
+/* Interpolation (build option INTERP, README.md): point-by-point comparison
+ * unless INTERP_DDA (digital differential analyser) or INTERP_COMPARE
+ * (comparison-integration) is defined; those two may move both axes in one
+ * step. */
+#if defined(INTERP_DDA) || defined(INTERP_COMPARE)
+#define INTERP_DIAGONAL 1
+#endif
+
+#if defined(DRIVE_PHASE3) || defined(DRIVE_PHASE3D) || defined(DRIVE_UNIPOLAR)
+/* Direct phase drive (build option DRIVE, README.md): the X windings on
+ * P1 from P1.0, the Y windings on P2 from P2.0, the pen on P1.4 as in the
+ * step/direction build.  The port byte st_port holds the X winding pattern
+ * in PHASE_BITS; its direction bits are the interrupt's own state (their
+ * pins show it, the motors do not need it). */
+#define DRIVE_PHASE 1
+#ifdef DRIVE_UNIPOLAR
+#define PHASE_BITS  0x0F            /* windings A, B, A', B' on P1.0-P1.3 (P2.0-P2.3) */
+#define BIT_X_DIR   0x20
+#define BIT_Y_DIR   0x40
+#else
+#define PHASE_BITS  0x07            /* windings A, B, C on P1.0-P1.2 (P2.0-P2.2) */
+#define BIT_X_DIR   0x08
+#define BIT_Y_DIR   0x20
+#endif
+#define PHASE_START 0x01            /* winding A energised at power-on */
+#define BIT_PEN     0x10            /* set: pen down */
+#else
 /* Output bits of the step/direction port (P1 on the 8051 board). */
 #define BIT_X_STEP  0x01
 #define BIT_X_DIR   0x02            /* set: moving towards -X */
@@ -30,5 +57,6 @@
 #define BIT_Y_DIR   0x08            /* set: moving towards -Y */
 #define BIT_PEN     0x10            /* set: pen down */
 #define STEP_BITS   (BIT_X_STEP | BIT_Y_STEP)
+#endif
 
 #endif

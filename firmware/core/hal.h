@@ -10,6 +10,7 @@
  *   HAL_TIMER_START(p)    start the step timer, first interrupt after p cycles
  *   HAL_TIMER_HALT()      stop the step timer at once and drop a pending tick
  *   HAL_PORT_OUT(v)       write the step/direction/pen port (a byte-wide write)
+ *   HAL_PORT2_OUT(v)      phase drive only: write the Y windings' port
  *   HAL_SEGMENT_STARTED(s) a queued command with sequence number s begins
  *   HAL_CRITICAL_BEGIN/END mask interrupts around a multi-byte read
  *   INLINE                a function expanded where used, with no separate copy */

@@ -14,6 +14,9 @@
 #include "ramp.h"
 
 XDATA segment_t queue[QUEUE_SLOTS];
+#ifdef INTERP_COMPARE
+XDATA uint16_t queue_final[QUEUE_SLOTS];
+#endif
 FAST volatile uint8_t q_head, q_tail;
 IDATA uint16_t plan_arg[6];
 IDATA uint16_t plan_seq;
@@ -77,11 +80,11 @@ static uint8_t commit(void)
  * it: the braking distance to that level. */
 static uint8_t level_for_rate(uint16_t rate)
 {
-    RAMP_ROM uint8_t *holds = &ramp_hold[setting[SET_SHAPE] ? RAMP_LEVELS : 0];
+    RAMP_ROM uint8_t *holds = &ramp_hold[RAMP_ROW(setting[SET_SHAPE])];
     uint8_t k = 0;
     uint16_t sum = (uint16_t)((uint8_t)holds[0] * (uint8_t)setting[SET_ACCEL]);
     while (k < RAMP_LEVELS - 1 &&
-           (setting[SET_SHAPE] ? ramp_rate_exp[k + 1] : RAMP_RATE_TRAP(k + 1)) <= rate) {
+           RAMP_RATE(setting[SET_SHAPE], k + 1) <= rate) {
         k++;
         sum += (uint16_t)((uint8_t)holds[k] * (uint8_t)setting[SET_ACCEL]);
     }
@@ -113,6 +116,26 @@ static int16_t magnitude(int16_t v, uint8_t dir_bit)
     return v;
 }
 
+#ifdef INTERP_DDA
+/* The DDA's capacity for integrands up to v: the smallest power of two
+ * above v (the integrators normalised: the largest integrand's top bit is
+ * the register's), at most 2^15.  For an arc its exponent n also goes into
+ * the high nibble of plan.dirs, for the step interrupt. */
+static uint16_t dda_capacity(uint16_t v, uint8_t arc)
+{
+    uint16_t cap = 1;
+    uint8_t n = 0;
+    while (cap <= v && !(cap & 0x8000)) {
+        cap <<= 1;
+        n += 0x10;
+    }
+    if (arc) {
+        plan.dirs |= n;
+    }
+    return cap;
+}
+#endif
+
 uint8_t planner_line(void)
 {
     if (plan_arg[0] == 0 && plan_arg[1] == 0) {
@@ -122,7 +145,16 @@ uint8_t planner_line(void)
     plan.dirs = 0;
     plan.a = magnitude((int16_t)plan_arg[0], BIT_X_DIR);
     plan.b = magnitude((int16_t)plan_arg[1], BIT_Y_DIR);
+#if defined(INTERP_COMPARE)
+    plan.steps = plan.a > plan.b ? plan.a : plan.b;     /* the base axis steps every time */
+#elif defined(INTERP_DDA)
+    /* The integrators' capacity (in c, free in a line), above both counts
+     * (the larger's bit length: a | b has it); as many iterations as it. */
+    plan.c = (int16_t)dda_capacity(plan.a | plan.b, 0);
+    plan.steps = plan.c;
+#else
     plan.steps = (uint16_t)plan.a + (uint16_t)plan.b;
+#endif
     return plan_motion();
 }
 
@@ -153,6 +185,7 @@ static void add_product(int16_t a, int16_t b)
     arc_t += (uint32_t)((int32_t)a * b);
 }
 
+#ifndef INTERP_COMPARE
 /* Adds to arc_t the steps of the staircase between point p (p[0], p[1])
  * and the point at radius arc_r on half-axis k (+X, +Y, -X, -Y = 0..3; 4:
  * the centre) bounding the point's quadrant: the staircase moves
@@ -169,6 +202,7 @@ static void add_axis_steps(uint8_t k, IDATA int16_t *p)
         arc_t += v;
     }
 }
+#endif
 
 /* arc_t += p[0]^2 + p[1]^2 */
 static void add_squares(IDATA int16_t *p)
@@ -216,6 +250,32 @@ static void arc_final_quadrant(void)
     }
 }
 
+#ifdef INTERP_COMPARE
+/* The iterations comparison-integration takes from the half-axis where
+ * quadrant k (0..3) starts to point pt on the circle, with p the point's
+ * distance from that axis and q its distance along it: the base axis is
+ * the one along which the point moves faster, so p while q >= p, past the
+ * 45-degree point (d, d), d = R / sqrt 2, then 2d - q. */
+static uint16_t arc_potential(uint8_t k, IDATA int16_t *pt)
+{
+    uint16_t p = (uint16_t)(pt[1] < 0 ? -pt[1] : pt[1]);
+    uint16_t q = (uint16_t)(pt[0] < 0 ? -pt[0] : pt[0]);
+    uint16_t t;
+    if ((uint8_t)(k + arc_cw) & 1) {        /* starts on the Y axis */
+        t = p;
+        p = q;
+        q = t;
+    }
+    if (q >= p) {
+        return p;
+    }
+    /* 2d = R * 362/256, by MUL AB (a call would cost this leaf function
+     * its overlaid locals) */
+    t = (uint16_t)((uint8_t)(arc_r >> 8) * (uint8_t)106) + (uint8_t)((uint16_t)((uint8_t)arc_r * (uint8_t)106) >> 8);
+    return arc_r + t - q;
+}
+#endif
+
 uint8_t planner_arc(uint8_t clockwise)
 {
     uint8_t qe, cross;
@@ -249,7 +309,9 @@ uint8_t planner_arc(uint8_t clockwise)
     }
     if (cross == 0) {
         arc_final_quadrant();
-    } else {
+    }
+#ifndef INTERP_COMPARE
+    else {
         /* Quadrant q runs from half-axis q to q+1 counter-clockwise, q+1 to q
          * clockwise; between the start's and the end's quadrants lie cross - 1
          * whole quadrants of 2r steps each. */
@@ -260,6 +322,39 @@ uint8_t planner_arc(uint8_t clockwise)
             arc_t += 2u * arc_r;
         }
     }
+#endif
+#if defined(INTERP_DDA)
+    /* The count is of iterations, not steps, and rounded down: a count that
+     * runs out early costs a little braking early, one that ran out late
+     * would brake too late.  An iteration of the DDA covers 1 to 1.414 times
+     * R / 2^n of these steps, where the capacity 2^n is the smallest power
+     * of two above R + 1 (the DDA strays up to about 1.4 steps off the
+     * circle): from a half-axis to any angle of the quadrant (the pieces of
+     * an arc that crosses one) at least 1 / 0.764 of them (at 67 degrees),
+     * within a quadrant at least 1 / 0.707 (near 45 degrees). */
+    plan.dirs &= 0x0F;
+    qe = cross ? 193 : 181;
+    arc_r = (uint16_t)(((uint32_t)dda_capacity(arc_r + 1, 1) * qe) / arc_r);   /* the radius is done with */
+    arc_t = (arc_t * arc_r) >> 8;
+#elif defined(INTERP_COMPARE)
+    /* The count is of iterations: the end's share of its quadrant (also
+     * the count in the final quadrant, queue_final), less the start's of its
+     * own, plus cross whole quadrants (2d each). */
+    arc_t = (qe == 4) ? 0 : arc_potential(qe, &plan.c);
+    queue_final[q_head] = arc_t > 2 ? (uint16_t)arc_t - 2 : 1;   /* 2 less: the staircase may take fewer */
+    arc_t -= arc_potential(plan.quadrant, &plan.a);
+    plan_arg[0] = 0;                        /* a half-axis point; plan_arg[0..3]: free after arc_points */
+    plan_arg[1] = arc_r;
+    for (qe = cross; qe; qe--) {
+        arc_t += arc_potential(arc_cw, (IDATA int16_t *)plan_arg);
+    }
+#endif
+#ifdef INTERP_DIAGONAL
+    arc_t -= 2;                             /* the staircase of a small radius may take fewer */
+    if ((int32_t)arc_t < 1) {
+        arc_t = 1;
+    }
+#endif
     plan.steps = arc_t > 65535UL ? 65535u : (uint16_t)arc_t;
     plan.crossings = cross;
     if (arc_cw) plan.quadrant |= 4;

@@ -28,6 +28,12 @@ extern FAST volatile uint8_t q_head, q_tail;   /* head: planner writes, tail: in
 #define QUEUE_SLOTS (QUEUE_SIZE + 1)
 #define QUEUE_NEXT(i) ((uint8_t)((i) == QUEUE_SLOTS - 1 ? 0 : (uint8_t)((i) + 1)))
 
+#ifdef INTERP_COMPARE
+/* Per queue slot, an arc's iterations in its final quadrant, which the step
+ * interrupt cannot work out (planner.c). */
+extern XDATA uint16_t queue_final[QUEUE_SLOTS];
+#endif
+
 uint8_t queue_used(void);
 #define QUEUE_FREE() ((uint8_t)(QUEUE_SIZE - queue_used()))
 

@@ -297,7 +297,7 @@ static uint8_t cmd_motion(char cmd)
 
 /* $0 acceleration divisor, $1 ramp shape, $2 default feed, $3 pen delay. */
 static RAMP_ROM uint16_t setting_min[SETTINGS] = {1, 0, 15, 1};
-static RAMP_ROM uint16_t setting_max[SETTINGS] = {50, 1, 65535u, 5000};
+static RAMP_ROM uint16_t setting_max[SETTINGS] = {50, RAMP_SHAPES - 1, 65535u, 5000};
 
 static uint8_t cmd_setting(void)
 {

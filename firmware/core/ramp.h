@@ -11,7 +11,11 @@
 #include "config.h"
 #include "hal.h"
 
+#ifdef RAMP_TRAPEZOID_ONLY
+#define RAMP_SHAPES 1   /* the interpolation build options (README.md): no room for the exponential */
+#else
 #define RAMP_SHAPES 2
+#endif
 #define RAMP_LEVELS 64
 #define RAMP_TRAPEZOID   0
 #define RAMP_EXPONENTIAL 1
@@ -27,9 +31,19 @@ extern RAMP_ROM uint8_t  ramp_hold[RAMP_SHAPES * RAMP_LEVELS];   /* steps per le
  * level from RAMP_R0 and needs no table; the exponential's is tabled. */
 #define RAMP_R0 250
 #define RAMP_DR 200
-extern RAMP_ROM uint16_t ramp_rate_exp[RAMP_LEVELS];
 #define RAMP_RATE_TRAP(level) ((uint16_t)(RAMP_R0 + (uint16_t)((uint8_t)RAMP_DR * (uint8_t)(level))))  /* MUL AB */
+/* Of a shape (the setting $1): the first index of its row in the tables,
+ * the rate of a level, the top rate. */
+#if RAMP_SHAPES > 1
+extern RAMP_ROM uint16_t ramp_rate_exp[RAMP_LEVELS];
+#define RAMP_ROW(shape) ((shape) ? RAMP_LEVELS : 0)
+#define RAMP_RATE(shape, level) ((shape) ? ramp_rate_exp[level] : RAMP_RATE_TRAP(level))
 #define RAMP_TOP(shape) ((shape) ? ramp_rate_exp[RAMP_LEVELS - 1] : RAMP_RATE_TRAP(RAMP_LEVELS - 1))
+#else
+#define RAMP_ROW(shape) 0
+#define RAMP_RATE(shape, level) RAMP_RATE_TRAP(level)
+#define RAMP_TOP(shape) RAMP_RATE_TRAP(RAMP_LEVELS - 1)
+#endif
 
 #define RAMP_ACCEL_TRAP 100000    /* trapezoid acceleration at divisor 1, steps/s^2 */
 

@@ -24,6 +24,11 @@
  * current level must begin to arrive at the segment's exit level on its last
  * step; it is kept up to date by additions only.
  *
+ * Build options (README.md) replace parts of this with other code:
+ * INTERP_DDA and INTERP_COMPARE the interpolation (see the comments at their
+ * code: the ramp, the queue and the quadrant logic stay), DRIVE_PHASE the
+ * pulse outputs (the windings' phase patterns instead of step pulses).
+ *
  * This runs up to some ten thousand times a second on a 1 MIPS core, and
  * SDCC compiles it as written: hence the copy of the segment in direct RAM,
  * flags as bits, one-hot arc moves, flat ramp tables indexed by one byte,
@@ -42,9 +47,29 @@ FAST volatile uint8_t st_level;
 IDATA volatile uint16_t st_underruns;
 
 static FAST uint16_t st_period;       /* HAL_PERIOD form: from the next pulse to the one after */
+#if defined(INTERP_DDA)
+static FAST uint16_t st_jx, st_jy;    /* the X and Y integrators' remainders, 0..st_cap-1 */
+static FAST uint16_t st_cap;          /* their capacity, a power of two: reaching it is a step */
+#elif defined(INTERP_COMPARE)
+static FAST union {
+    int32_t arc;                      /* arc: deviation F = x^2 + y^2 - R^2 */
+    int16_t line;                     /* line: deviation F */
+} st_f;
+#define st_af st_f.arc
+#define st_lf st_f.line
+static FLAG st_ybase;                 /* line: Y is the base axis, the one that steps every time */
+#else
 static FAST int16_t st_lf;            /* line: deviation F */
 static FAST int32_t st_af;            /* arc: deviation F = x^2 + y^2 - R^2 */
+#endif
+#ifdef DRIVE_PHASE
+static XDATA uint8_t st_phase_y;      /* the Y windings' pattern (no byte of internal RAM is left) */
+#endif
+#ifdef INTERP_DDA
+static FAST uint8_t st_moves;         /* arc: the quadrant's two moves, both arc_moves nibbles */
+#else
 static FAST uint8_t st_moves;         /* arc: the quadrant's arc_moves entry */
+#endif
 static FAST uint8_t st_lbase;         /* shape * RAMP_LEVELS: the ramp tables' row */
 static FAST uint16_t st_level_left;   /* steps left at the current level */
 static IDATA uint16_t st_below;       /* hold steps of all the levels below this one */
@@ -63,10 +88,20 @@ static FLAG st_end_neg;               /* arc: ... on its negative half */
  * for F >= 0 in the low nibble, for F < 0 in the high nibble (seed 000
  * table 2.2). */
 #define MOVES(pos, neg) ((uint8_t)((pos) | ((neg) << 4)))
+#ifndef INTERP_DDA
 static RAMP_ROM uint8_t arc_moves[8] = {
     MOVES(MV_XN, MV_YP), MOVES(MV_YN, MV_XN), MOVES(MV_XP, MV_YN), MOVES(MV_YP, MV_XP), /* ccw */
     MOVES(MV_YN, MV_XP), MOVES(MV_XP, MV_YP), MOVES(MV_YP, MV_XN), MOVES(MV_XN, MV_YN), /* cw */
 };
+#endif
+#ifdef INTERP_DDA
+/* Per quadrant index: both moves of the quadrant, as arc_moves would give them. */
+#define BOTH(moves) ((uint8_t)(((moves) | ((moves) >> 4)) & 0x0F))
+static RAMP_ROM uint8_t arc_both[8] = {
+    BOTH(MOVES(MV_XN, MV_YP)), BOTH(MOVES(MV_YN, MV_XN)), BOTH(MOVES(MV_XP, MV_YN)), BOTH(MOVES(MV_YP, MV_XP)),
+    BOTH(MOVES(MV_YN, MV_XP)), BOTH(MOVES(MV_XP, MV_YP)), BOTH(MOVES(MV_YP, MV_XN)), BOTH(MOVES(MV_XN, MV_YN)),
+};
+#endif
 /* Per quadrant index: the half-axis that ends the quadrant (+X, +Y, -X, -Y =
  * 0..3) in bits 0-1, the index of the quadrant after it in bits 4-6.  Quadrant
  * q runs from half-axis q to q+1 counter-clockwise, from q+1 to q clockwise. */
@@ -75,6 +110,43 @@ static RAMP_ROM uint8_t arc_turns[8] = {
     TURN(1, 1), TURN(2, 2), TURN(3, 3), TURN(0, 0),     /* ccw */
     TURN(0, 7), TURN(1, 4), TURN(2, 5), TURN(3, 6),     /* cw */
 };
+
+#ifdef DRIVE_PHASE
+/* The winding pattern after each pattern: forwards (towards +) at the
+ * pattern, backwards at PHASE_SPAN plus the pattern; the patterns that are
+ * not in the sequence lead to its first. */
+#define PHASE_SPAN (PHASE_BITS + 1)
+static RAMP_ROM uint8_t phase_next[2 * PHASE_SPAN] = {
+#if defined(DRIVE_PHASE3)
+    /* single excitation A, B, C (A = bit 0, B = bit 1, C = bit 2) */
+    1, 2, 4, 1, 1, 1, 1, 1,
+    1, 4, 1, 1, 2, 1, 1, 1,
+#elif defined(DRIVE_PHASE3D)
+    /* double excitation A, AB, B, BC, C, CA */
+    1, 3, 6, 2, 5, 1, 4, 1,
+    1, 5, 3, 1, 6, 4, 2, 1,
+#else
+    /* two-phase unipolar, half steps A, AB, B, BA', A', A'B', B', B'A
+     * (A = bit 0, B = bit 1, A' = bit 2, B' = bit 3) */
+    1, 3, 6, 2, 12, 1, 4, 1, 9, 1, 1, 1, 8, 1, 1, 1,
+    1, 9, 3, 1, 6, 1, 2, 1, 12, 8, 1, 1, 4, 1, 1, 1,
+#endif
+};
+#endif
+
+#ifdef INTERP_DDA
+/* A lower bound of the iterations an arc takes from a half-axis for s
+ * point-by-point steps (planner.c): s * 193 / 256 by two MUL AB, leaving
+ * out the factor 2^n / R, which is above 1. */
+#define ARC_ITERATIONS(s) ((uint16_t)((uint8_t)((s) >> 8) * (uint8_t)193) + \
+                           (uint8_t)((uint16_t)((uint8_t)(s) * (uint8_t)193) >> 8))
+#endif
+
+#ifdef INTERP_COMPARE
+/* 2c + 1 in 32 bits, the change of F when coordinate c becomes c + 1
+ * (shifted unsigned: defined for negative c). */
+#define F_STEP(c) ((int32_t)(uint32_t)((uint32_t)(int32_t)(c) << 1) + 1)
+#endif
 
 #define HOLD_STEPS(level) \
     ((uint16_t)((uint8_t)ramp_hold[(uint8_t)(st_lbase + (level))] * (uint8_t)setting[SET_ACCEL]))  /* MUL AB */
@@ -91,6 +163,10 @@ void stepper_init(void)
     pos_x = 0;
     pos_y = 0;
     st_port = HAL_PORT_IDLE;
+#ifdef DRIVE_PHASE
+    st_phase_y = PHASE_START;
+    HAL_PORT2_OUT(PHASE_START);
+#endif
     st_hold = 0;
     st_underruns = 0;
     stepper_abort();
@@ -109,7 +185,7 @@ void stepper_abort(void)
 
 void stepper_start(void)
 {
-    st_lbase = setting[SET_SHAPE] ? RAMP_LEVELS : 0;
+    st_lbase = RAMP_ROW(setting[SET_SHAPE]);
     st_load = 1;
     st_pulse_x = 0;
     st_pulse_y = 0;
@@ -138,7 +214,11 @@ void stepper_resume(void)
 INLINE void arc_enter_quadrant(void)
 {
     uint8_t turn = arc_turns[st_seg.quadrant];
+#ifdef INTERP_DDA
+    st_moves = arc_both[st_seg.quadrant];
+#else
     st_moves = arc_moves[st_seg.quadrant];
+#endif
     st_end_x0 = turn & 1;
     st_end_neg = (turn >> 1) & 1;
 }
@@ -163,7 +243,16 @@ INLINE uint8_t load_segment(void)
     st_line = 0;
     if (st_seg.kind == SEG_LINE) {
         st_line = 1;
+#if defined(INTERP_DDA)
+        st_cap = st_seg.c;
+#elif defined(INTERP_COMPARE)
+        /* The base axis is the longer one (steps = its count).  F starts
+         * at 0, or at -1 along an axis: the other axis must never step. */
+        st_ybase = st_seg.a != st_seg.steps;
+        st_lf = (st_seg.a && st_seg.b) ? 0 : -1;
+#else
         st_lf = st_seg.a ? 0 : -1;   /* a pure Y move must never take the F >= 0 branch */
+#endif
         st_port = (st_port & ~(BIT_X_DIR | BIT_Y_DIR)) | st_seg.dirs;
     } else if (st_seg.kind >= SEG_PEN) {
         if (st_seg.kind == SEG_PEN) {
@@ -174,10 +263,27 @@ INLINE uint8_t load_segment(void)
         st_below = 0;
         st_level_left = HOLD_STEPS(0);
     } else {
+#if defined(INTERP_DDA)
+        /* The capacity 2^n comes in the high nibble of dirs (planner.c). */
+        n = st_seg.dirs >> 4;
+        st_seg.dirs &= 0x0F;
+        st_cap = 1;
+        while (n--) {
+            st_cap <<= 1;
+        }
+#else
         st_af = 0;
+#endif
         arc_enter_quadrant();
     }
+#ifdef INTERP_DDA
+    st_jx = st_cap >> 1;             /* half a step: the DDA rounds */
+    st_jy = st_jx;
+#endif
     st_brake_at = st_below - st_seg.exit_brake + st_level_left;
+#ifdef INTERP_COMPARE
+    n = q_tail;
+#endif
     q_tail = QUEUE_NEXT(q_tail);
     if (st_seg.exit && q_tail == q_head) {
         /* Nothing follows yet: plan to stop rather than run off the queue's end. */
@@ -185,12 +291,18 @@ INLINE uint8_t load_segment(void)
         st_brake_at += st_seg.exit_brake - HOLD_STEPS(0);
         st_underruns++;
     }
+#ifdef INTERP_COMPARE
+    /* An arc's iterations in its final quadrant (only the braking distance
+     * above needed exit_brake). */
+    st_seg.exit_brake = queue_final[n];
+#endif
     st_cruising = 0;
     st_stale = 1;
     HAL_SEGMENT_STARTED(st_seg.seq);
     return 1;
 }
 
+#ifndef INTERP_DIAGONAL
 /* The arc's next move (one-hot MV_*); in the final quadrant never pass the end. */
 INLINE uint8_t arc_next_move(void)
 {
@@ -211,6 +323,7 @@ INLINE uint8_t arc_next_move(void)
     /* The end lies just off the staircase: walk straight onto it, X first. */
     return (toward & MV_X) ? (toward & MV_X) : toward;
 }
+#endif
 
 /* The code is laid out for the common case, a line at cruise speed: it runs
  * straight through to the end with one test per condition. */
@@ -220,6 +333,43 @@ STEPPER_ISR
     int16_t c;
 
     HAL_TIMER_ADVANCE(st_period);
+#if defined(DRIVE_PHASE)
+    /* The next pattern of the sequence on the windings, both axes at once
+     * if the interpolation says so. */
+    if (st_pulse_x) {
+#if BIT_X_DIR == PHASE_SPAN
+        mv = st_port & (PHASE_BITS | BIT_X_DIR);   /* the direction bit is the table's half */
+#else
+        mv = st_port & PHASE_BITS;
+        if (st_port & BIT_X_DIR) mv |= PHASE_SPAN;
+#endif
+        st_port = (st_port & (uint8_t)~PHASE_BITS) | phase_next[mv];
+        HAL_PORT_OUT(st_port);
+        if (st_port & BIT_X_DIR) pos_x--; else pos_x++;
+    }
+    if (st_pulse_y) {
+        mv = st_phase_y;
+        if (st_port & BIT_Y_DIR) mv |= PHASE_SPAN;
+        mv = phase_next[mv];
+        st_phase_y = mv;
+        HAL_PORT2_OUT(mv);
+        if (st_port & BIT_Y_DIR) pos_y--; else pos_y++;
+    }
+#elif defined(INTERP_DIAGONAL)
+    if (st_pulse_x || st_pulse_y) {  /* one axis or both, pulses together */
+        mv = st_port;
+        if (st_pulse_x) mv |= BIT_X_STEP;
+        if (st_pulse_y) mv |= BIT_Y_STEP;
+        HAL_PORT_OUT(mv);
+        if (st_pulse_x) {
+            if (st_port & BIT_X_DIR) pos_x--; else pos_x++;
+        }
+        if (st_pulse_y) {
+            if (st_port & BIT_Y_DIR) pos_y--; else pos_y++;
+        }
+        HAL_PORT_OUT(st_port);
+    }
+#else
     if (st_pulse_x) {                /* one axis per step */
         HAL_PORT_OUT(st_port | BIT_X_STEP);
         if (st_port & BIT_X_DIR) pos_x--; else pos_x++;
@@ -229,6 +379,7 @@ STEPPER_ISR
         if (st_port & BIT_Y_DIR) pos_y--; else pos_y++;
         HAL_PORT_OUT(st_port);
     }
+#endif
     if (st_load) {
         goto load;
     }
@@ -239,6 +390,46 @@ run:
     if (st_hold && st_level == 0) {
         goto pause;
     }
+#if defined(INTERP_DDA)
+    /* DDA: each iteration adds |dx| and |dy| to the integrators' remainders;
+     * an axis steps when its remainder reaches the capacity 2^n, the power
+     * of two above both counts.  After 2^n iterations (steps = st_cap) each
+     * axis has stepped exactly its count: no correction needed. */
+    st_pulse_x = 0;
+    st_jx += st_seg.a;
+    if (st_jx & st_cap) {
+        st_jx ^= st_cap;
+        st_pulse_x = 1;
+    }
+    st_pulse_y = 0;
+    st_jy += st_seg.b;
+    if (st_jy & st_cap) {
+        st_jy ^= st_cap;
+        st_pulse_y = 1;
+    }
+#elif defined(INTERP_COMPARE)
+    /* Comparison-integration (seed 004, 5.3.3.2, table 5-3): the base axis
+     * steps every time, the other with it when F >= 0; F sums the other
+     * count per base step and takes off the base count per step of the
+     * other. */
+    if (st_ybase) {
+        st_pulse_y = 1;
+        st_pulse_x = 0;
+        if ((int8_t)(st_lf >> 8) >= 0) {
+            st_lf -= st_seg.b;
+            st_pulse_x = 1;
+        }
+        st_lf += st_seg.a;
+    } else {
+        st_pulse_x = 1;
+        st_pulse_y = 0;
+        if ((int8_t)(st_lf >> 8) >= 0) {
+            st_lf -= st_seg.a;
+            st_pulse_y = 1;
+        }
+        st_lf += st_seg.b;
+    }
+#else
     if ((int8_t)(st_lf >> 8) >= 0) {
         st_pulse_x = 1;
         st_pulse_y = 0;
@@ -248,6 +439,7 @@ run:
         st_pulse_y = 1;
         st_lf += st_seg.a;
     }
+#endif
     if (!st_cruising) {
         st_seg.steps--;
         goto ramp;
@@ -267,9 +459,15 @@ cruise_step:
     }
     st_seg.steps = st_cruise_to + CRUISE_LEFT();
 cruise_end:
+#ifdef INTERP_DIAGONAL
+    if (st_seg.steps == 0 && !st_line) {
+        st_seg.steps = 1;            /* an arc ends where its end point is, not by the count */
+    }
+#else
     if (st_seg.steps == 0 && !st_line && st_seg.crossings) {
         st_seg.steps = 1;            /* an arc's estimate runs out at its end, not before */
     }
+#endif
     goto ramp;
 
 not_line:
@@ -284,7 +482,119 @@ not_line:
         goto pause;
     }
     /* Arc.  F = x^2 + y^2 - R^2 changes by 2c+1 when a coordinate c becomes
-     * c+1, by -2c+1 when it becomes c-1. */
+     * c+1, by -2c+1 when it becomes c-1 (point-by-point comparison and
+     * comparison-integration; the DDA has no F). */
+#ifdef INTERP_DIAGONAL
+#ifdef INTERP_DDA
+    mv = st_moves;                   /* the quadrant's X and Y moves */
+#else
+    mv = (st_moves | (st_moves >> 4)) & 0x0F;
+#endif
+    if (!st_seg.crossings) {
+        /* Final quadrant: only moves towards the end.  Final correction:
+         * with one axis left, or when neither move of the quadrant heads
+         * towards the end (an end a fraction of a step off the curve),
+         * walk straight onto it, X first. */
+        mv &= st_seg.dirs;
+        if (!mv || !(st_seg.dirs & MV_X) || !(st_seg.dirs & MV_Y)) {
+            mv = (st_seg.dirs & MV_X) ? (st_seg.dirs & MV_X) : st_seg.dirs;
+            goto arc_move;
+        }
+    }
+#if defined(INTERP_DDA)
+    /* DDA (seed 001 1.2, seed 004 5.3.2): X integrates |y|, Y integrates
+     * |x|, with the capacity 2^n just above the radius.  Y adds x after
+     * this iteration's X step: updated in turn rather than at once, the
+     * staircase closes on itself instead of spiralling outwards. */
+    c = st_seg.b;
+    if (c < 0) c = -c;
+    st_jx += c;
+    if (st_jx & st_cap) {
+        st_jx ^= st_cap;
+    } else {
+        mv &= (uint8_t)~MV_X;
+    }
+    c = st_seg.a;
+    if (mv & MV_XN) c--;
+    if (mv & MV_XP) c++;
+    if (c < 0) c = -c;
+    st_jy += c;
+    if (st_jy & st_cap) {
+        st_jy ^= st_cap;
+    } else {
+        mv &= (uint8_t)~MV_Y;
+    }
+arc_move:
+    st_pulse_x = 0;
+    st_pulse_y = 0;
+    if (mv & MV_X) {
+        st_pulse_x = 1;
+        if (mv & MV_XN) {
+            st_seg.a--;
+            st_port |= BIT_X_DIR;
+        } else {
+            st_seg.a++;
+            st_port &= (uint8_t)~BIT_X_DIR;
+        }
+    }
+    if (mv & MV_Y) {
+        st_pulse_y = 1;
+        if (mv & MV_YN) {
+            st_seg.b--;
+            st_port |= BIT_Y_DIR;
+        } else {
+            st_seg.b++;
+            st_port &= (uint8_t)~BIT_Y_DIR;
+        }
+    }
+#else
+    /* Comparison-integration (seed 004, 5.3.3.4): the base axis is the
+     * faster one, X where |y| > |x| (the other move of the quadrant if the
+     * base's is ruled out), and steps every time; the other axis steps with
+     * it when F says so: towards the inside while F >= 0, outwards while
+     * F < 0 - the move point-by-point comparison would make.  F is the
+     * exact x^2 + y^2 - R^2 rather than the seed's rectangle sums. */
+    c = st_seg.a;                    /* |x| - |y| */
+    if (c < 0) c = -c;
+    if (st_seg.b < 0) c += st_seg.b; else c -= st_seg.b;
+    c = ((c < 0) ? !(mv & MV_X) : (mv & MV_Y)) ? MV_Y : MV_X;     /* the base */
+    mv &= (uint8_t)c | (((int8_t)(st_af >> 24) < 0) ? (uint8_t)(st_moves >> 4) : (uint8_t)(st_moves & 0x0F));
+arc_move:
+    st_pulse_x = 0;
+    st_pulse_y = 0;
+arc_move_next:
+    /* One move at a time, X first, each changing F. */
+    if (mv & MV_X) {
+        st_pulse_x = 1;
+        if (mv & MV_XN) {
+            c = -st_seg.a;
+            st_seg.a--;
+            st_port |= BIT_X_DIR;
+        } else {
+            c = st_seg.a;
+            st_seg.a++;
+            st_port &= (uint8_t)~BIT_X_DIR;
+        }
+        mv &= MV_Y;
+    } else {
+        st_pulse_y = 1;
+        if (mv & MV_YN) {
+            c = -st_seg.b;
+            st_seg.b--;
+            st_port |= BIT_Y_DIR;
+        } else {
+            c = st_seg.b;
+            st_seg.b++;
+            st_port &= (uint8_t)~BIT_Y_DIR;
+        }
+        mv = 0;
+    }
+    st_af += F_STEP(c);
+    if (mv) {
+        goto arc_move_next;
+    }
+#endif
+#else
     mv = arc_next_move();
     if (mv & MV_X) {
         st_pulse_x = 1;
@@ -312,7 +622,10 @@ not_line:
         }
     }
     st_af += (int32_t)(uint32_t)((uint32_t)(int32_t)c << 1) + 1;   /* 2c + 1, shifted unsigned: defined for negative c */
+#endif
+#ifndef DRIVE_PHASE
     HAL_PORT_OUT(st_port);           /* direction set a whole period before its pulse */
+#endif
     if (st_seg.crossings) {
         /* Has the arc reached the half-axis that ends its quadrant?  Testing
          * the point, not the last move, keeps radius 1 right: its staircase
@@ -326,6 +639,13 @@ not_line:
             c = st_seg.a;
         }
         if (c != 0 && (c < 0) == st_end_neg) {
+#ifdef INTERP_DDA
+            /* The axis along the half-axis turns round: its remainder, the
+             * part of a step it has gone past its position, now lies the
+             * other way. */
+            c = st_cap - 1;
+            if (st_end_x0) st_jy ^= c; else st_jx ^= c;
+#endif
             st_seg.quadrant = arc_turns[st_seg.quadrant] >> 4;
             arc_enter_quadrant();
             if (--st_seg.crossings == 0) {
@@ -349,6 +669,28 @@ not_line:
                     st_seg.dirs |= MV_YP;
                 }
                 st_seg.steps += (uint16_t)c;
+#if defined(INTERP_COMPARE)
+                /* The iterations to the end, as the planner counted them
+                 * (none if the end is here). */
+                if (st_seg.dirs) {
+                    st_seg.steps = st_seg.exit_brake;
+                }
+#elif defined(INTERP_DDA)
+                /* Steps to iterations, at least 1 unless the end is here
+                 * (then none).  2^n / R is at least 4/3 when the radius
+                 * (the coordinate along the half-axis) is under 3/4 of the
+                 * capacity: then the steps themselves are a lower bound.
+                 * (Not more: the final correction walks one step per
+                 * iteration.) */
+                c = st_seg.a | st_seg.b;
+                if (c < 0) c = -c;
+                if ((uint16_t)c >= st_cap - (st_cap >> 2)) {
+                    st_seg.steps = ARC_ITERATIONS(st_seg.steps);
+                }
+                if (!st_seg.steps && st_seg.dirs) {
+                    st_seg.steps = 1;
+                }
+#endif
                 goto ramp;
             }
         }
@@ -360,6 +702,22 @@ not_line:
             st_seg.steps = 1;        /* an estimate: the count runs out at the end, not before */
         }
     } else {
+#ifdef INTERP_DIAGONAL
+        /* An axis that reached its end coordinate moves no more; the arc
+         * ends with both, whatever the count says. */
+        if (st_seg.a == st_seg.c) st_seg.dirs &= (uint8_t)~MV_X;
+        if (st_seg.b == st_seg.d) st_seg.dirs &= (uint8_t)~MV_Y;
+        if (!st_seg.dirs) {
+            st_load = 1;
+            return;
+        }
+        if (st_cruising) {
+            goto cruise_step;
+        }
+        if (--st_seg.steps == 0) {
+            st_seg.steps = 1;
+        }
+#else
         /* An axis that reached its end coordinate moves no more. */
         if (st_pulse_x) {
             if (st_seg.a == st_seg.c) st_seg.dirs &= (uint8_t)~MV_X;
@@ -370,6 +728,7 @@ not_line:
             goto cruise_step;
         }
         st_seg.steps--;
+#endif
     }
 
 ramp:

@@ -20,7 +20,8 @@ looking up the level of a requested speed outside the interrupt; the trapezoid's
 a formula, core/ramp.h), and the
 steps to hold the level at the fastest acceleration.  The braking distance
 from a level is the sum of the holds below it; the planner adds them up once
-per command.
+per command.  A build with RAMP_SHAPES 1 (core/ramp.h) compiles in the
+trapezoid only.
 """
 import math
 import sys
@@ -74,11 +75,13 @@ def main(out):
                              ("ramp_period_hi", 0, "HI({})".format), ("ramp_hold", 2, str)):
         lines += [f"RAMP_ROM uint8_t {name}[RAMP_SHAPES * RAMP_LEVELS] = {{",
                   "    /* trapezoid */", rows(t["trap"][field], fmt) + ",",
-                  "    /* exponential */", rows(t["exp"][field], fmt), "};"]
+                  "#if RAMP_SHAPES > 1",
+                  "    /* exponential */", rows(t["exp"][field], fmt), "#endif", "};"]
     # The trapezoid's rates are RAMP_R0 + k * RAMP_DR (core/ramp.h): only the
     # exponential's are tabled.
     assert t["trap"][1] == [R0 + k * DR for k in range(LEVELS)]
-    lines += ["RAMP_ROM uint16_t ramp_rate_exp[RAMP_LEVELS] = {", rows(t["exp"][1]), "};"]
+    lines += ["#if RAMP_SHAPES > 1", "RAMP_ROM uint16_t ramp_rate_exp[RAMP_LEVELS] = {", rows(t["exp"][1]), "};",
+              "#endif"]
     text = "\n".join(lines) + "\n"
     with open(out, "w") as f:
         f.write(text)

@@ -11,7 +11,8 @@ Used by tools/bench.py and tests/test_firmware_sim.py.  The simulated board:
   byte (`-P`), no colours (`-b`);
 - optionally a VCD recording of port 1 (the step/direction/pen port) and of
   PSW.3, the register-bank bit that only the step interrupt sets: it is 1
-  from the interrupt's `mov psw,#0x08` to its `pop psw`.
+  from the interrupt's `mov psw,#0x08` to its `pop psw`; more signals on
+  request (port 2 for the Y windings of the phase-drive builds).
 
 Addresses come from the linker's map (global symbols) and the relocated
 listings build/mcs51/*.rst (static symbols and instructions).
@@ -77,7 +78,7 @@ class Symbols:
 class Sim:
     """One simulated board.  Use as a context manager."""
 
-    def __init__(self, base=FIRMWARE / "build" / "plotter", vcd=None, timeout=30.0):
+    def __init__(self, base=FIRMWARE / "build" / "plotter", vcd=None, timeout=30.0, extra_signals=()):
         self.base = Path(base)
         self.sym = Symbols(self.base)
         self.timeout = timeout
@@ -113,6 +114,8 @@ class Sim:
             self.cmd(f'set hw vcd[0] output "{vcd}"')
             self.cmd("set hw vcd[0] add sfr[0x90]")
             self.cmd("set hw vcd[0] add sfr[0xd0].3")
+            for signal in extra_signals:      # e.g. "sfr[0xa0]", port 2
+                self.cmd(f"set hw vcd[0] add {signal}")
 
     def _raw_pty(self):
         master, slave = pty.openpty()
@@ -161,6 +164,13 @@ class Sim:
         self.cmd(f"tbreak 0x{addr:x}")
         self.sock.sendall(b"go\n")
         self.running = True
+        out = self._until_con(rb"Stop at.*?\x00", timeout)
+        self.running = False
+        return out
+
+    def wait_stop(self, timeout=None):
+        """Wait, while it runs, until the simulation stops at a breakpoint."""
+        assert self.running, "the simulation is not running"
         out = self._until_con(rb"Stop at.*?\x00", timeout)
         self.running = False
         return out

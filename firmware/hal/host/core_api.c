@@ -13,6 +13,7 @@
 uint16_t host_period;
 uint8_t host_timer_on;
 uint8_t host_port;
+uint8_t host_port2;
 
 #define TX_CAP 8192
 static uint8_t tx[TX_CAP];
@@ -42,6 +43,7 @@ void core_reset(void)
     host_period = 0;
     host_timer_on = 0;
     host_port = 0;
+    host_port2 = 0;
     tx_len = 0;
     seq_log_len = 0;
     q_head = q_tail = 0;
@@ -84,6 +86,27 @@ int32_t core_pos_x(void) { return pos_x; }
 int32_t core_pos_y(void) { return pos_y; }
 int core_pen(void) { return (host_port & BIT_PEN) ? 1 : 0; }
 int core_port(void) { return host_port; }
+int core_port2(void) { return host_port2; }
+
+/* The build options: interpolation 0 point-by-point comparison, 1 DDA,
+ * 2 comparison-integration; drive 0 step/direction, 1 three-phase single,
+ * 2 three-phase double excitation, 3 two-phase unipolar. */
+#if defined(INTERP_DDA)
+int core_interp(void) { return 1; }
+#elif defined(INTERP_COMPARE)
+int core_interp(void) { return 2; }
+#else
+int core_interp(void) { return 0; }
+#endif
+#if defined(DRIVE_PHASE3)
+int core_drive(void) { return 1; }
+#elif defined(DRIVE_PHASE3D)
+int core_drive(void) { return 2; }
+#elif defined(DRIVE_UNIPOLAR)
+int core_drive(void) { return 3; }
+#else
+int core_drive(void) { return 0; }
+#endif
 int core_running(void) { return st_running; }
 int core_level(void) { return st_level; }
 unsigned core_queue_free(void) { return QUEUE_FREE(); }

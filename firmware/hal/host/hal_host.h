@@ -12,11 +12,16 @@
 #define XDATA
 #define IDATA
 #define FLAG uint8_t
+#ifdef DRIVE_PHASE
+#define HAL_PORT_IDLE PHASE_START
+#else
 #define HAL_PORT_IDLE 0x00
+#endif
 
 extern uint16_t host_period;      /* cycles until the next step interrupt */
 extern uint8_t host_timer_on;
 extern uint8_t host_port;
+extern uint8_t host_port2;        /* phase drive: the Y windings (P2 on the board) */
 void host_segment_started(uint16_t seq);
 
 #define STEPPER_ISR void stepper_isr(void)
@@ -25,6 +30,7 @@ void host_segment_started(uint16_t seq);
 #define HAL_TIMER_START(p) (host_period = (p), host_timer_on = 1)
 #define HAL_TIMER_HALT() (host_timer_on = 0)
 #define HAL_PORT_OUT(v) (host_port = (uint8_t)(v))
+#define HAL_PORT2_OUT(v) (host_port2 = (uint8_t)(v))
 #define HAL_SEGMENT_STARTED(s) host_segment_started(s)
 #define HAL_CRITICAL_BEGIN()
 #define HAL_CRITICAL_END()

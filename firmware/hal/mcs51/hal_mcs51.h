@@ -20,8 +20,18 @@
  * registers across the (many) calls instead of spilling them to RAM. */
 #pragma callee_saves hal_putc
 
+#ifdef DRIVE_PHASE
+/* P1: X windings, the pen on P1.4, and the direction bits of st_port (the
+ * interrupt's own state, seen on their pins but wired to nothing); the
+ * other pins are inputs, written high.  P2: Y windings, the rest high. */
+#define HAL_PORT_IDLE ((uint8_t)(PHASE_START | (uint8_t)~(PHASE_BITS | BIT_PEN | BIT_X_DIR | BIT_Y_DIR)))
+#define HAL_PORT_OUT(v) (P1 = (v))
+#define HAL_PORT2_OUT(v) (P2 = (uint8_t)((v) | (uint8_t)~PHASE_BITS))
+#else
 /* P1.5-P1.7 are inputs (limit switches, spare): keep them written high. */
 #define HAL_PORT_IDLE 0xE0
+#define HAL_PORT_OUT(v) (P1 = (v))
+#endif
 
 /* Timer 0 as one 16-bit register (TH0:TL0). */
 __sfr16 __at(0x8C8A) TMR0;
@@ -65,7 +75,6 @@ __sfr16 __at(0x8C8A) TMR0;
         TR0 = 1;                                                             \
     } while (0)
 #define HAL_TIMER_HALT() do { TR0 = 0; TF0 = 0; } while (0)
-#define HAL_PORT_OUT(v) (P1 = (v))
 #define HAL_SEGMENT_STARTED(s)
 #define HAL_CRITICAL_BEGIN() (EA = 0)
 #define HAL_CRITICAL_END() (EA = 1)
