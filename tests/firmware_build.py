@@ -1,8 +1,8 @@
 """Builds the firmware's host library (and 8051 images) once per test session.
 
 Without arguments: the default build, firmware/build/.  With build options
-(firmware/Makefile, e.g. INTERP="dda" or DRIVE="phase3"), the build of
-those options in its own directory, firmware/build/<options>/.
+(firmware/Makefile, e.g. INTERP="dda", DRIVE="phase3" or ZAXIS="1"), the
+build of those options in its own directory, firmware/build/<options>/.
 """
 import subprocess
 from functools import lru_cache
@@ -11,13 +11,14 @@ from pathlib import Path
 REPO_ROOT = Path(__file__).resolve().parent.parent
 FIRMWARE = REPO_ROOT / "firmware"
 
-DEFAULTS = {"INTERP": "pbp", "DRIVE": "stepdir"}
+DEFAULTS = {"INTERP": "pbp", "DRIVE": "stepdir", "ZAXIS": "0"}
 
 
 def build_dir(**options) -> Path:
     """firmware/build/ or firmware/build/<options>/, as the Makefile names it."""
     names = [options.get(k, v) for k, v in DEFAULTS.items()]
     names = [n for n, default in zip(names, DEFAULTS.values()) if n != default]
+    names = ["z" if n == "1" else n for n in names]          # ZAXIS=1
     return FIRMWARE / "build" / "-".join(names) if names else FIRMWARE / "build"
 
 

@@ -57,6 +57,11 @@
 #define BIT_Y_DIR   0x08            /* set: moving towards -Y */
 #define BIT_PEN     0x10            /* set: pen down */
 #define STEP_BITS   (BIT_X_STEP | BIT_Y_STEP)
+#ifdef ZAXIS
+/* The Z axis (build option ZAXIS, README.md): its own step and direction. */
+#define BIT_Z_STEP  0x20
+#define BIT_Z_DIR   0x40            /* set: moving towards -Z */
+#endif
 #endif
 
 #endif

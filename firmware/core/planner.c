@@ -155,8 +155,29 @@ uint8_t planner_line(void)
 #else
     plan.steps = (uint16_t)plan.a + (uint16_t)plan.b;
 #endif
+#ifdef ZAXIS
+    plan.c = 0;                     /* not a Z move */
+#endif
     return plan_motion();
 }
+
+#ifdef ZAXIS
+/* A Z move: a line along Y (so the interrupt's line code runs it, the ramp
+ * included) with c = 1, which sends its pulses to the Z pins. */
+uint8_t planner_z(void)
+{
+    if (plan_arg[0] == 0) {
+        return E_OK;
+    }
+    plan.kind = SEG_LINE;
+    plan.dirs = 0;
+    plan.a = 0;
+    plan.b = magnitude((int16_t)plan_arg[0], BIT_Z_DIR);
+    plan.c = 1;
+    plan.steps = plan.b;
+    return plan_motion();
+}
+#endif
 
 /* Quadrant 0..3 (I..IV) of a point relative to the centre.  A point on an
  * axis belongs to the quadrant the arc is about to sweep through, so the

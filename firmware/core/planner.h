@@ -50,6 +50,9 @@ extern IDATA uint16_t plan_arg[6];  /* coordinates as int16_t */
 extern IDATA uint16_t plan_seq;   /* sequence number of the command (0 when typed) */
 
 uint8_t planner_line(void);
+#ifdef ZAXIS
+uint8_t planner_z(void);    /* dz at plan_arg[0], alone: Z moves, X and Y stay */
+#endif
 uint8_t planner_arc(uint8_t clockwise);
 uint8_t planner_pen(uint8_t down);
 uint8_t planner_dwell(uint16_t ms);

@@ -160,6 +160,13 @@ static void report_status(void)
     put_tag('Y');
     num = (uint32_t)pos[1];
     put_num();
+#ifdef ZAXIS
+    put_tag('Z');
+    HAL_CRITICAL_BEGIN();
+    num = (uint32_t)pos_z;
+    HAL_CRITICAL_END();
+    put_num();
+#endif
     put_tag('Q');
     put_u16(QUEUE_FREE());
     put_tag('N');
@@ -273,7 +280,11 @@ static uint8_t cmd_motion(char cmd)
 {
     static IDATA uint8_t coords;
     uint8_t k, bit = 1;
+#ifdef ZAXIS
+    coords = (cmd == 'L') ? 2 : (cmd == 'Z') ? 1 : 4;
+#else
     coords = (cmd == 'L') ? 2 : 4;
+#endif
     if (nargs < coords || nargs > (uint8_t)(coords + 2)) return E_ARGS;
     for (k = 0; k < nargs; k++, bit <<= 1) {
         if (k < coords) {
@@ -292,6 +303,13 @@ static uint8_t cmd_motion(char cmd)
         arg_mag[PLAN_EXIT] = arg_mag[3];
         return planner_line();
     }
+#ifdef ZAXIS
+    if (cmd == 'Z') {
+        arg_mag[PLAN_FEED] = arg_mag[1];
+        arg_mag[PLAN_EXIT] = arg_mag[2];
+        return planner_z();
+    }
+#endif
     return planner_arc(cmd == 'C');
 }
 
@@ -349,6 +367,9 @@ static uint8_t run_command(void)
     case 'L':
     case 'C':
     case 'A':
+#ifdef ZAXIS
+    case 'Z':
+#endif
         return cmd_motion(cmd);
     case 'P':
     case 'D':
@@ -362,6 +383,9 @@ static uint8_t run_command(void)
         HAL_CRITICAL_BEGIN();
         pos_x = 0;
         pos_y = 0;
+#ifdef ZAXIS
+        pos_z = 0;
+#endif
         HAL_CRITICAL_END();
         return E_OK;
     default:

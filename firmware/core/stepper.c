@@ -27,7 +27,9 @@
  * Build options (README.md) replace parts of this with other code:
  * INTERP_DDA and INTERP_COMPARE the interpolation (see the comments at their
  * code: the ramp, the queue and the quadrant logic stay), DRIVE_PHASE the
- * pulse outputs (the windings' phase patterns instead of step pulses).
+ * pulse outputs (the windings' phase patterns instead of step pulses), and
+ * ZAXIS adds a third axis, moved alone by lines along Y whose pulses go to
+ * the Z pins.
  *
  * This runs up to some ten thousand times a second on a 1 MIPS core, and
  * SDCC compiles it as written: hence the copy of the segment in direct RAM,
@@ -40,6 +42,9 @@
 #include "ramp.h"
 
 FAST int32_t pos_x, pos_y;
+#ifdef ZAXIS
+XDATA int32_t pos_z;
+#endif
 FAST segment_t st_seg;
 volatile FLAG st_running, st_paused, st_hold;
 FAST volatile uint8_t st_port;
@@ -70,7 +75,13 @@ static FAST uint8_t st_moves;         /* arc: the quadrant's two moves, both arc
 #else
 static FAST uint8_t st_moves;         /* arc: the quadrant's arc_moves entry */
 #endif
+#if RAMP_SHAPES > 1
 static FAST uint8_t st_lbase;         /* shape * RAMP_LEVELS: the ramp tables' row */
+#define LBASE_SET() (st_lbase = RAMP_ROW(setting[SET_SHAPE]))
+#else
+#define st_lbase 0                    /* one shape: its row is the tables */
+#define LBASE_SET()
+#endif
 static FAST uint16_t st_level_left;   /* steps left at the current level */
 static IDATA uint16_t st_below;       /* hold steps of all the levels below this one */
 static FAST uint16_t st_brake_at;     /* braking must have begun once steps left <= this */
@@ -83,6 +94,9 @@ static FLAG st_cruising;              /* at the cruise level with its period set
 static FLAG st_stale;                 /* st_period is not the current level's table period */
 static FLAG st_end_x0;                /* arc: the quadrant ends on the Y axis, where x reaches 0 */
 static FLAG st_end_neg;               /* arc: ... on its negative half */
+#ifdef ZAXIS
+static FLAG st_zmove;                 /* the line is a Z move: its Y steps go to Z */
+#endif
 
 /* Per quadrant index (4 if clockwise, plus quadrant I..IV = 0..3): the move
  * for F >= 0 in the low nibble, for F < 0 in the high nibble (seed 000
@@ -162,6 +176,9 @@ void stepper_init(void)
 {
     pos_x = 0;
     pos_y = 0;
+#ifdef ZAXIS
+    pos_z = 0;
+#endif
     st_port = HAL_PORT_IDLE;
 #ifdef DRIVE_PHASE
     st_phase_y = PHASE_START;
@@ -185,7 +202,7 @@ void stepper_abort(void)
 
 void stepper_start(void)
 {
-    st_lbase = RAMP_ROW(setting[SET_SHAPE]);
+    LBASE_SET();
     st_load = 1;
     st_pulse_x = 0;
     st_pulse_y = 0;
@@ -241,6 +258,9 @@ INLINE uint8_t load_segment(void)
     } while (--n);
 
     st_line = 0;
+#ifdef ZAXIS
+    st_zmove = 0;
+#endif
     if (st_seg.kind == SEG_LINE) {
         st_line = 1;
 #if defined(INTERP_DDA)
@@ -253,7 +273,13 @@ INLINE uint8_t load_segment(void)
 #else
         st_lf = st_seg.a ? 0 : -1;   /* a pure Y move must never take the F >= 0 branch */
 #endif
+#ifdef ZAXIS
+        /* A Z move is a line along Y with c = 1 (planner_z). */
+        if (st_seg.c) st_zmove = 1;
+        st_port = (st_port & ~(BIT_X_DIR | BIT_Y_DIR | BIT_Z_DIR)) | st_seg.dirs;
+#else
         st_port = (st_port & ~(BIT_X_DIR | BIT_Y_DIR)) | st_seg.dirs;
+#endif
     } else if (st_seg.kind >= SEG_PEN) {
         if (st_seg.kind == SEG_PEN) {
             st_port = (st_port & ~BIT_PEN) | st_seg.dirs;
@@ -365,6 +391,21 @@ STEPPER_ISR
             if (st_port & BIT_X_DIR) pos_x--; else pos_x++;
         }
         if (st_pulse_y) {
+            if (st_port & BIT_Y_DIR) pos_y--; else pos_y++;
+        }
+        HAL_PORT_OUT(st_port);
+    }
+#elif defined(ZAXIS)
+    if (st_pulse_x) {                /* one axis per step */
+        HAL_PORT_OUT(st_port | BIT_X_STEP);
+        if (st_port & BIT_X_DIR) pos_x--; else pos_x++;
+        HAL_PORT_OUT(st_port);
+    } else if (st_pulse_y) {
+        if (st_zmove) {
+            HAL_PORT_OUT(st_port | BIT_Z_STEP);
+            if (st_port & BIT_Z_DIR) pos_z--; else pos_z++;
+        } else {
+            HAL_PORT_OUT(st_port | BIT_Y_STEP);
             if (st_port & BIT_Y_DIR) pos_y--; else pos_y++;
         }
         HAL_PORT_OUT(st_port);

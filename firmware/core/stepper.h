@@ -12,6 +12,9 @@
  * POS_READ, which forces a fresh read.  Not volatile itself, so that the
  * interrupt's increments stay a few instructions. */
 extern FAST int32_t pos_x, pos_y;
+#ifdef ZAXIS
+extern XDATA int32_t pos_z;         /* build option ZAXIS: no internal RAM is left */
+#endif
 #define POS_READ(v) (*(volatile FAST int32_t *)&(v))
 
 /* The segment being executed, copied from its queue slot and worked on in

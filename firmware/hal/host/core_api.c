@@ -84,6 +84,9 @@ int core_timer_on(void) { return host_timer_on; }
 unsigned core_period(void) { return host_period; }
 int32_t core_pos_x(void) { return pos_x; }
 int32_t core_pos_y(void) { return pos_y; }
+#ifdef ZAXIS
+int32_t core_pos_z(void) { return pos_z; }
+#endif
 int core_pen(void) { return (host_port & BIT_PEN) ? 1 : 0; }
 int core_port(void) { return host_port; }
 int core_port2(void) { return host_port2; }

@@ -27,6 +27,10 @@
 #define HAL_PORT_IDLE ((uint8_t)(PHASE_START | (uint8_t)~(PHASE_BITS | BIT_PEN | BIT_X_DIR | BIT_Y_DIR)))
 #define HAL_PORT_OUT(v) (P1 = (v))
 #define HAL_PORT2_OUT(v) (P2 = (uint8_t)((v) | (uint8_t)~PHASE_BITS))
+#elif defined(ZAXIS)
+/* P1.5, P1.6: Z step and direction; P1.7 is an input, written high. */
+#define HAL_PORT_IDLE 0x80
+#define HAL_PORT_OUT(v) (P1 = (v))
 #else
 /* P1.5-P1.7 are inputs (limit switches, spare): keep them written high. */
 #define HAL_PORT_IDLE 0xE0
