@@ -34,3 +34,13 @@ def test_launch_file_starts_the_nodes():
 def test_installed_with_the_package():
     for rel in ("rviz/plotter.rviz", "launch/plotter.launch.py"):
         assert (SHARE / rel).read_text() == (SRC / rel).read_text()
+
+
+def test_flash_target_runs_stcgal_on_the_image():
+    import re
+    import subprocess
+    from pathlib import Path
+    repo = Path(__file__).resolve().parent.parent
+    out = subprocess.run(["make", "-n", "-C", str(repo / "firmware"), "flash", "PORT=/dev/ttyUSB7",
+                          "PYTHON=python3"], capture_output=True, text=True, check=True).stdout
+    assert re.search(r"python3 -m stcgal -P stc89 -p /dev/ttyUSB7 build/+plotter.ihx", out)
