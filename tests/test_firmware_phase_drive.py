@@ -111,6 +111,19 @@ def s51():
         pytest.skip(reason)
 
 
+def wait_idle(sim):
+    """The status report once the board is idle."""
+    for _ in range(400):
+        sim.write(b"?")
+        try:
+            status = STATUS.search(sim.read_until(rb">[^\n]*\n", timeout=3).decode())
+        except TimeoutError:                # a "?" lost while the interrupt ran: ask again
+            continue
+        if status.group(1) == "Idle":
+            return status
+    raise AssertionError("the board did not come to rest")
+
+
 def board_run(drive, vcd):
     base = mcu_image(DRIVE=drive)
     with s51sim.Sim(base, vcd=vcd, extra_signals=("sfr[0xa0]",)) as sim:
@@ -121,14 +134,13 @@ def board_run(drive, vcd):
         sim.go()
         replies = []
         for command in COMMANDS:
+            # One at a time, to an idle board: s51's UART loses bytes of a
+            # line that arrive while the step interrupt runs, when the host
+            # is busy.
+            status = wait_idle(sim)
             sim.write(command.encode() + b"\n")
             replies.append(sim.read_until(REPLY).decode().strip())
-        status = None
-        for _ in range(200):                      # until the board is idle again
-            sim.write(b"?")
-            status = STATUS.search(sim.read_until(rb">[^\n]*\n").decode())
-            if status.group(1) == "Idle":
-                break
+        status = wait_idle(sim)
         sim.stop()
         sim.vcd_stop()
         ram = (sim.int32("_pos_x"), sim.int32("_pos_y"))
