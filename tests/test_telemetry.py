@@ -107,7 +107,12 @@ def test_path_grows_and_diagnostics_follow_the_link(tmp_path):
                 return bool(positions) and positions[-1][0] > t0 and \
                     math.dist(positions[-1][1], end) < 0.02 and len(paths) > 3
         wait_until(at_end, 90, "the program to finish")
-        time.sleep(0.5)
+
+        def path_at_end():
+            with lock:
+                p = paths[-1][1] if paths else None
+            return bool(p) and math.dist((p[-1][0] * 1000, p[-1][1] * 1000), end) < 0.05
+        wait_until(path_at_end, 20, "/plotter/path to reach the end")    # published on a timer
         with lock:
             sizes = [len(p) for t, p in paths if t > t0]
             last_path = paths[-1][1]

@@ -216,6 +216,14 @@ class ShapeServer(Node):
         if made is None:
             return
         name, program = made
+        # Each program is published once: right after start-up the streamer's
+        # subscription may not be matched yet, so give discovery a moment.
+        deadline = time.monotonic() + 3.0
+        while self._program_pub.get_subscription_count() == 0 and time.monotonic() < deadline:
+            time.sleep(0.02)
+        if self._program_pub.get_subscription_count() == 0:
+            self._report_error(f"{name}: no gcode_streamer listens on {self._program_pub.topic_name}")
+            return
         self._program_pub.publish(String(data=program))
         self.get_logger().info(
             f"published program '{name}' ({len(program.splitlines())} lines)")
