@@ -28,10 +28,8 @@ import uuid
 from dataclasses import dataclass
 from typing import Optional, Tuple
 
-import rclpy
 from rclpy.action import ActionClient, ActionServer, CancelResponse, GoalResponse
 from rclpy.callback_groups import ReentrantCallbackGroup
-from rclpy.executors import ExternalShutdownException, MultiThreadedExecutor
 from rclpy.node import Node
 from rcl_interfaces.msg import ParameterDescriptor
 from std_msgs.msg import String
@@ -44,6 +42,7 @@ from action_msgs.msg import GoalStatus
 from rclpy.action.client import ClientGoalHandle
 from unique_identifier_msgs.msg import UUID
 
+from .node_main import run_node
 from .commands import MAX_RATE
 from .gcode_limits import WorkArea
 from .gcode_types import GCodeError
@@ -325,22 +324,7 @@ def _wait(future, timeout: float) -> bool:
 
 
 def main(args=None) -> None:
-    rclpy.init(args=args)
-    node = None
-    try:
-        node = GCodeStreamer()
-        executor = MultiThreadedExecutor(num_threads=4)  # action callbacks wait: keep threads free
-        executor.add_node(node)
-        executor.spin()
-    except (KeyboardInterrupt, ExternalShutdownException):
-        pass
-    except ValueError as exc:
-        rclpy.logging.get_logger("gcode_streamer").fatal(f"bad parameter: {exc}")
-        raise SystemExit(1)
-    finally:
-        if node is not None:
-            node.destroy_node()
-        rclpy.try_shutdown()
+    run_node(GCodeStreamer, "gcode_streamer", args)
 
 
 if __name__ == "__main__":

@@ -15,14 +15,13 @@ same events on demand.
 """
 from __future__ import annotations
 
-import rclpy
-from rclpy.executors import ExternalShutdownException
 from rclpy.node import Node
 from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
 from rcl_interfaces.msg import ParameterDescriptor
 from std_msgs.msg import String
 from std_srvs.srv import Trigger
 
+from .node_main import run_node
 from .faults import parse_faults
 from .machine_params import declare_machine
 from .mock_board import MockBoard, MockBoardConfig
@@ -90,20 +89,7 @@ class MockBoardNode(Node):
 
 
 def main(args=None) -> None:
-    rclpy.init(args=args)
-    node = None
-    try:
-        node = MockBoardNode()
-        rclpy.spin(node)
-    except (KeyboardInterrupt, ExternalShutdownException):
-        pass
-    except ValueError as exc:
-        rclpy.logging.get_logger("mock_board").fatal(f"bad parameter: {exc}")
-        raise SystemExit(1)
-    finally:
-        if node is not None:
-            node.destroy_node()
-        rclpy.try_shutdown()
+    run_node(MockBoardNode, "mock_board", args)
 
 
 if __name__ == "__main__":

@@ -21,11 +21,9 @@ import time
 from dataclasses import replace
 from typing import List, Optional
 
-import rclpy
 from geometry_msgs.msg import PointStamped
 from rclpy.action import ActionServer, CancelResponse, GoalResponse
 from rclpy.callback_groups import ReentrantCallbackGroup
-from rclpy.executors import ExternalShutdownException, MultiThreadedExecutor
 from rclpy.node import Node
 from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
 from rcl_interfaces.msg import ParameterDescriptor
@@ -35,6 +33,7 @@ from std_srvs.srv import Trigger
 from plotter_interfaces.action import StreamCommands
 from plotter_interfaces.msg import BoardState
 
+from .node_main import run_node
 from .machine_params import declare_machine
 from .board_session import DISCONNECTED, QUEUE_SIZE, BoardSession, Job, SessionConfig
 from .protocol import Status
@@ -270,22 +269,7 @@ class SerialBridge(Node):
 
 
 def main(args=None) -> None:
-    rclpy.init(args=args)
-    node = None
-    try:
-        node = SerialBridge()
-        executor = MultiThreadedExecutor(num_threads=4)  # action callbacks wait: keep threads free
-        executor.add_node(node)
-        executor.spin()
-    except (KeyboardInterrupt, ExternalShutdownException):
-        pass
-    except ValueError as exc:
-        rclpy.logging.get_logger("serial_bridge").fatal(f"bad parameter: {exc}")
-        raise SystemExit(1)
-    finally:
-        if node is not None:
-            node.destroy_node()
-        rclpy.try_shutdown()
+    run_node(SerialBridge, "serial_bridge", args)
 
 
 if __name__ == "__main__":
