@@ -11,10 +11,7 @@ does (reliable, volatile, after a subscriber has matched), reads
 
 import os
 import random
-import signal
-import subprocess
 import sys
-import tempfile
 import threading
 import time
 from pathlib import Path
@@ -23,6 +20,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parent.parent / "ros_ws" / "src"
 
 import pytest  # noqa: E402
 
+from plotter_bridge import node_processes  # noqa: E402
 from plotter_shapes.geometry import goal_program  # noqa: E402
 
 pytestmark = pytest.mark.ros
@@ -53,46 +51,11 @@ def domain_id():
     return random.SystemRandom().choice(choices)
 
 
-class NodeProcess:
+class NodeProcess(node_processes.NodeProcess):
     """The shape server running as a separate process."""
 
     def __init__(self, domain: int, ros_args=()):
-        env = dict(os.environ)
-        env["ROS_DOMAIN_ID"] = str(domain)
-        env["ROS_AUTOMATIC_DISCOVERY_RANGE"] = "LOCALHOST"
-        env["PYTHONPATH"] = os.pathsep.join(
-            [str(SHAPES_SRC)] + [p for p in env.get("PYTHONPATH", "").split(os.pathsep) if p])
-        env["PYTHONUNBUFFERED"] = "1"
-        self.log = tempfile.TemporaryFile(mode="w+")
-        args = [sys.executable, "-m", "plotter_shapes.shape_server_node"]
-        if ros_args:
-            args += ["--ros-args", *ros_args]
-        self.proc = subprocess.Popen(args, env=env, stdout=self.log, stderr=subprocess.STDOUT)
-
-    def output(self) -> str:
-        self.log.seek(0)
-        return self.log.read()
-
-    def alive(self) -> bool:
-        return self.proc.poll() is None
-
-    def interrupt(self, timeout=15.0) -> int:
-        """Ctrl-C, as in a terminal; returns the exit code."""
-        if self.alive():
-            self.proc.send_signal(signal.SIGINT)
-            try:
-                self.proc.wait(timeout)
-            except subprocess.TimeoutExpired:
-                self.proc.kill()
-                self.proc.wait()
-                raise AssertionError("shape_server did not stop on SIGINT:\n" + self.output())
-        return self.proc.returncode
-
-    def close(self):
-        if self.alive():
-            self.proc.kill()
-            self.proc.wait()
-        self.log.close()
+        super().__init__("plotter_shapes.shape_server_node", domain, ros_args)
 
 
 @pytest.fixture
