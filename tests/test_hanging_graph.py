@@ -1,6 +1,6 @@
 """The hanging plotter (seed 003) end to end through the node graph on the mock board:
 each node a process with `machine:=hanging`, a 50 cm circle from G-code, the
-trace and /plotter/position in pen coordinates."""
+trace, /plotter/position and /plotter/planned_path in pen coordinates."""
 import math
 import random
 import threading
@@ -17,7 +17,9 @@ STEPS_PER_MM = 80.0
 def test_hanging_circle_through_the_graph_stays_within_a_tenth_of_a_millimetre(tmp_path):
     from action_msgs.msg import GoalStatus
     from geometry_msgs.msg import PointStamped
+    from nav_msgs.msg import Path
     from rclpy.action import ActionClient
+    from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
     from plotter_interfaces.action import RunProgram
 
     domain = random.SystemRandom().randint(110, 200)
@@ -33,6 +35,13 @@ def test_hanging_circle_through_the_graph_stays_within_a_tenth_of_a_millimetre(t
         with lock:
             positions.append((m.point.x, m.point.y))
     probe.node.create_subscription(PointStamped, "position", on_position, 50)
+    planned = []
+
+    def on_planned(m):
+        with lock:
+            planned.append([(p.pose.position.x * 1000, p.pose.position.y * 1000) for p in m.poses])
+    latched = QoSProfile(depth=1, reliability=ReliabilityPolicy.RELIABLE, durability=DurabilityPolicy.TRANSIENT_LOCAL)
+    probe.node.create_subscription(Path, "planned_path", on_planned, latched)
     try:
         client = ActionClient(probe.node, RunProgram, "run_program")
         assert client.wait_for_server(timeout_sec=60)
@@ -51,6 +60,13 @@ def test_hanging_circle_through_the_graph_stays_within_a_tenth_of_a_millimetre(t
         assert worst <= 0.1, worst
         with lock:
             assert positions and math.hypot(positions[-1][0] - 650, positions[-1][1] - 500) < 0.05
+        wait_until(lambda: bool(planned), 10, "/plotter/planned_path")
+        with lock:
+            plan = planned[-1]
+        assert math.dist(plan[0], (0, 0)) < 0.05 and math.dist(plan[-1], (650, 500)) < 0.05, (plan[0], plan[-1])
+        on_circle = next(k for k, p in enumerate(plan) if math.dist(p, (650, 500)) < 0.05)
+        assert len(plan) - on_circle > 50
+        assert max(abs(math.hypot(x - 400, y - 500) - 250) for x, y in plan[on_circle:]) <= 0.1
         client.destroy()
     except BaseException:
         print(graph.outputs())

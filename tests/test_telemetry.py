@@ -7,9 +7,12 @@ import time
 import pytest
 
 from plotter_bridge.link import LinkStats
+from plotter_bridge.gcode_limits import WorkArea
+from plotter_bridge.kinematics import Machine
+from plotter_bridge.program import StreamerConfig, compile_program
 from plotter_bridge.telemetry import (ERROR, OK, STALE, WARN, BridgeSnapshot, LinkCounters, Sample,
-                                      diagnose_board, diagnose_link, ink_segments, planned_points,
-                                      step_rate, thin)
+                                      diagnose_board, diagnose_link, ink_segments, planned_pen_points,
+                                      planned_points, step_rate, thin)
 
 
 def test_planned_points_follow_lines_arcs_and_the_pen():
@@ -23,6 +26,29 @@ def test_planned_points_follow_lines_arcs_and_the_pen():
     assert (pts[-1].x, pts[-1].y, pts[-1].pen_down) == (100, 100, False)
     cw = planned_points(["C 0 0 -400 0"], (0, 0))
     assert cw[len(cw) // 4].y < 0
+
+
+def test_planned_path_of_the_hanging_machine_is_in_pen_coordinates():
+    # Its board commands move the motors; the planned path must land on the
+    # programmed circle in pen coordinates (pen mm * steps_per_mm), as /plotter/position.
+    machine = Machine("hanging")
+    config = StreamerConfig(machine="hanging", area=WorkArea(0, 800, 0, 1000))
+    program = "G21 G90\nG0 X650 Y500\nM3\nG2 X650 Y500 I-250 J0 F6000\nM5\n"
+    commands = [c.text for c in compile_program(program, config)]
+    k = machine.steps_per_mm
+    to_pen = lambda m: tuple(v * k for v in machine.pen_mm(m))   # noqa: E731
+    pts = planned_pen_points(commands, (0, 0), False, None, to_pen)
+    drawn = [(p.x / k, p.y / k) for p in pts if p.pen_down]
+    assert len(drawn) > 50
+    assert max(abs(math.hypot(x - 400, y - 500) - 250) for x, y in drawn) < 0.1
+    assert math.dist(drawn[-1], (650, 500)) < 0.05
+    # Where the job says it ends (motor steps) shifts the path, in motor steps.
+    end = (3, -2)
+    moved = planned_pen_points(commands, (0, 0), False, end, to_pen)
+    assert (moved[-1].x, moved[-1].y) == pytest.approx(to_pen(end))
+    # A cartesian machine's motors are its axes: nothing changes.
+    plain = planned_pen_points(["L 800 0"], (100, 100), True, None, lambda m: m)
+    assert [(p.x, p.y) for p in plain] == [(100, 100), (900, 100)]
 
 
 def test_step_rate_thinning_and_ink():

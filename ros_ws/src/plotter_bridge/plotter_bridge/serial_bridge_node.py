@@ -18,7 +18,6 @@ from __future__ import annotations
 import math
 import threading
 import time
-from dataclasses import replace
 from typing import List, Optional
 
 from geometry_msgs.msg import PointStamped
@@ -106,7 +105,8 @@ class SerialBridge(Node):
         self._job_id = ""
         self._reserved = False
         self._telemetry = BridgeTelemetry(self, self.steps_per_mm, self.frame_id,
-                                          str(self.get_parameter("port").value))
+                                          str(self.get_parameter("port").value), to_pen=self._pen_steps
+                                          if self.machine.kind != "cartesian" else None)
         self.session = BoardSession(self._open_port, config, on_status=self._on_status,
                                     on_change=self._on_change, log=self._log)
         self._running = True
@@ -142,9 +142,6 @@ class SerialBridge(Node):
         s.pen_down = st.pen_down
         s.queue_free = st.queue_free
         self.pub_state.publish(s)
-        if self.machine.kind != "cartesian":
-            # Telemetry draws in the trace's units: the pen's mm times steps_per_mm.
-            st = replace(st, x=p.point.x * self.steps_per_mm, y=p.point.y * self.steps_per_mm)
         self._telemetry.on_status(st, self.session.link.stats, self.session.firmware,
                                   self.session.last_error, self.session.job)
 
@@ -233,6 +230,11 @@ class SerialBridge(Node):
         finally:
             with self.session.lock:
                 self._reserved = False
+
+    def _pen_steps(self, motor: tuple) -> tuple:
+        """Telemetry draws in the trace's units: the pen's mm times steps_per_mm."""
+        x, y = self.machine.pen_mm(motor)
+        return x * self.steps_per_mm, y * self.steps_per_mm
 
     def _position_mm(self) -> tuple:
         st = self.session.link.status if self.session.link else None

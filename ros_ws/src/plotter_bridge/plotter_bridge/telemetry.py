@@ -7,7 +7,8 @@ keeps them; two timers of the bridge's node publish, in its namespace:
 - ``path`` (nav_msgs/Path): every position the board reported, the pen's
   trajectory so far;
 - ``planned_path`` (nav_msgs/Path, transient local): the moves of the job
-  being streamed, from its board commands;
+  being streamed, from its board commands, in the same pen coordinates as
+  ``path``;
 - ``pen`` (visualization_msgs/Marker, 4 times a second): the pen, red when
   down, grey when up;
 - ``ink`` (visualization_msgs/Marker, line list): the pen-down part of the
@@ -19,6 +20,10 @@ keeps them; two timers of the bridge's node publish, in its namespace:
 
 Paths and markers are in metres (REP-103) in the bridge's frame (``plotter``),
 so RViz shows the 200 mm work area at its true size; ``position`` stays in mm.
+The board counts motor steps; on a machine whose motors are not its axes
+(the hanging plotter) every position goes through the machine's forward
+kinematics first (``to_pen``: motor steps to the pen's mm times steps_per_mm),
+the reported ones and the planned ones alike.
 The pure functions below hold the logic; the class only turns it into messages.
 """
 from __future__ import annotations
@@ -81,13 +86,32 @@ def planned_points(commands: Iterable[str], start: Tuple[int, int], pen_down: bo
     return out
 
 
+ToPen = Callable[[Tuple[float, float]], Tuple[float, float]]
+
+
+def planned_pen_points(commands: Iterable[str], start: Tuple[int, int], pen_down: bool,
+                       end: Optional[Tuple[int, int]], to_pen: ToPen) -> List[PathPoint]:
+    """planned_points from the motor position `start`, shifted to end at the
+    motor position `end` when the job knows it, then carried into pen
+    coordinates: board commands move the motors, so their sums are motor steps."""
+    pts = planned_points(commands, start, pen_down)
+    if end is not None:        # start where the job ends less its moves
+        dx, dy = end[0] - pts[-1].x, end[1] - pts[-1].y
+        pts = [replace(p, x=p.x + dx, y=p.y + dy) for p in pts]
+    out = []
+    for p in pts:
+        x, y = to_pen((p.x, p.y))
+        out.append(replace(p, x=x, y=y))
+    return out
+
+
 # --- step rate and the pen's trace ----------------------------------------------------------
 
 @dataclass(frozen=True)
 class Sample:
     t: float           # monotonic seconds
-    x: int             # steps
-    y: int
+    x: float           # pen coordinates: steps of a cartesian machine, pen mm * steps_per_mm
+    y: float
     pen_down: bool
 
 
@@ -211,7 +235,7 @@ class BridgeTelemetry:
     """Publishers of the serial bridge for RViz and /diagnostics; fed from its I/O thread."""
 
     def __init__(self, node, steps_per_mm: float, frame_id: str, port: str,
-                 clock: Callable[[], float] = time.monotonic) -> None:
+                 clock: Callable[[], float] = time.monotonic, to_pen: Optional[ToPen] = None) -> None:
         from diagnostic_msgs.msg import DiagnosticArray
         from nav_msgs.msg import Path
         from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
@@ -220,6 +244,7 @@ class BridgeTelemetry:
         self.steps_per_mm = steps_per_mm
         self.frame_id = frame_id
         self.clock = clock
+        self.to_pen = to_pen
         latched = QoSProfile(depth=1, reliability=ReliabilityPolicy.RELIABLE,
                              durability=DurabilityPolicy.TRANSIENT_LOCAL)
         self.pub_path = node.create_publisher(Path, "path", latched)
@@ -242,9 +267,11 @@ class BridgeTelemetry:
 
     # --- hooks called by the bridge (its I/O thread) ---------------------------------
     def on_status(self, st, stats, firmware: str = "", last_error: str = "", job=None) -> None:
-        """A status report (the bridge's I/O thread): only bookkeeping, the timers publish."""
+        """A status report in motor steps (the bridge's I/O thread): only
+        bookkeeping, the timers publish."""
         now = self.clock()
-        sample = Sample(now, st.x, st.y, bool(st.pen_down))
+        x, y = self.to_pen((st.x, st.y)) if self.to_pen else (st.x, st.y)
+        sample = Sample(now, x, y, bool(st.pen_down))
         with self._lock:
             prev = self._samples[-1] if self._samples else None
             rate = step_rate(prev, sample) if prev else 0.0
@@ -331,10 +358,7 @@ class BridgeTelemetry:
                          end: Optional[Tuple[int, int]]) -> None:
         from nav_msgs.msg import Path
         header = self._header()
-        pts = planned_points(commands, here, pen_down)
-        if end is not None:        # the job knows where it ends: start there less its moves
-            dx, dy = end[0] - pts[-1].x, end[1] - pts[-1].y
-            pts = [replace(p, x=p.x + dx, y=p.y + dy) for p in pts]
+        pts = planned_pen_points(commands, here, pen_down, end, self.to_pen or (lambda m: m))
         self.pub_planned.publish(Path(header=header, poses=[self._pose(header, p.x, p.y) for p in pts]))
 
     def snapshot(self) -> BridgeSnapshot:
