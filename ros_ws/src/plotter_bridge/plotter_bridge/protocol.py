@@ -79,6 +79,7 @@ class Status:
     pen_down: bool
     underruns: int
     alarm: int
+    z: Optional[int] = None  # Z axis position in steps; None from a board without one (ZAXIS=0)
 
 
 @dataclass(frozen=True)
@@ -98,7 +99,7 @@ _OK = re.compile(r"ok(?: N(\d+))? Q(\d+)$")
 _ERR = re.compile(r"err(?: N(\d+))? E(\d+)(?: (.*))?$")
 _RS = re.compile(r"rs N(\d+) E(\d+)$")
 _STATUS = re.compile(
-    r"<(Idle|Run|Hold|Alarm) X(-?\d+) Y(-?\d+) Q(\d+) N(\d+) S(\d+) P([01]) U(\d+) A(\d+)>$")
+    r"<(Idle|Run|Hold|Alarm) X(-?\d+) Y(-?\d+)(?: Z(-?\d+))? Q(\d+) N(\d+) S(\d+) P([01]) U(\d+) A(\d+)>$")
 
 
 def verify_reply(line: str) -> Optional[str]:
@@ -123,8 +124,8 @@ def parse_reply(raw: str) -> Optional[Reply]:
     m = _STATUS.match(line)
     if m:
         g = m.groups()
-        return Status(g[0], int(g[1]), int(g[2]), int(g[3]), int(g[4]), int(g[5]),
-                      g[6] == "1", int(g[7]), int(g[8]))
+        return Status(g[0], int(g[1]), int(g[2]), int(g[4]), int(g[5]), int(g[6]),
+                      g[7] == "1", int(g[8]), int(g[9]), None if g[3] is None else int(g[3]))
     m = _RS.match(line)
     if m:
         return Resend(int(m.group(1)), int(m.group(2)))
