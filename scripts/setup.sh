@@ -9,7 +9,8 @@
 #     builder's include paths);
 #   - the colcon workspace ros_ws/ built into ros_ws/install/;
 #   - the `plotter` command in .venv/bin/;
-#   - the firmware (make -C firmware), when firmware/Makefile exists.
+#   - the firmware (make -C firmware), and the host library of its Z axis build
+#     (ZAXIS=1), when firmware/Makefile exists.
 # Idempotent: each step is skipped when its inputs did not change.
 # Environment: PYTHON (default python3) is the interpreter the venv is made from.
 set -euo pipefail
@@ -154,6 +155,9 @@ chmod +x "$VENV/bin/plotter"
 if [ -f firmware/Makefile ]; then
     log "make -C firmware"
     make -s -C firmware
+    # The mock board of a machine with a Z axis (plotter --z-axis) runs this core.
+    log "make -C firmware ZAXIS=1 build/z/libplotter_core.so"
+    make -s -C firmware ZAXIS=1 build/z/libplotter_core.so
 fi
 
 log "done: source .venv/bin/activate && source ros_ws/install/setup.bash"

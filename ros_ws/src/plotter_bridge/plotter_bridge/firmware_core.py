@@ -17,16 +17,22 @@ CYCLES_PER_S = 921_600  # STC89C52RC: 11.0592 MHz / 12
 LIB_NAME = "libplotter_core.so"
 
 
-def find_library() -> Path:
-    """Locate libplotter_core.so: $PLOTTER_CORE_LIB, else firmware/build above this file or cwd."""
-    env = os.environ.get("PLOTTER_CORE_LIB")
+def find_library(z_axis: bool = False) -> Path:
+    """Locate libplotter_core.so: $PLOTTER_CORE_LIB, else firmware/build above
+    this file or cwd; with z_axis the build with a Z axis ($PLOTTER_CORE_LIB_Z,
+    firmware/build/z)."""
+    env = os.environ.get("PLOTTER_CORE_LIB_Z" if z_axis else "PLOTTER_CORE_LIB")
     if env:
         return Path(env)
+    build = Path("firmware", "build", "z") if z_axis else Path("firmware", "build")
     for start in (Path(__file__).resolve(), Path.cwd().resolve()):
         for parent in (start, *start.parents):
-            candidate = parent / "firmware" / "build" / LIB_NAME
+            candidate = parent / build / LIB_NAME
             if candidate.exists():
                 return candidate
+    if z_axis:
+        raise FileNotFoundError(f"{build / LIB_NAME} not found: run `make -C firmware ZAXIS=1` "
+                                f"or set PLOTTER_CORE_LIB_Z")
     raise FileNotFoundError(
         f"{LIB_NAME} not found: run `make -C firmware` or set PLOTTER_CORE_LIB")
 
@@ -49,6 +55,10 @@ class FirmwareCore:
         lib = ctypes.CDLL(str(private), mode=ctypes.RTLD_LOCAL)
         for name in ("core_pos_x", "core_pos_y"):
             getattr(lib, name).restype = ctypes.c_int32
+        # Only the build with a Z axis (ZAXIS=1) has its position.
+        self.has_z = hasattr(lib, "core_pos_z")
+        if self.has_z:
+            lib.core_pos_z.restype = ctypes.c_int32
         lib.core_period.restype = ctypes.c_uint
         lib.core_tx_read.restype = ctypes.c_uint32
         lib.core_seq_log.restype = ctypes.c_uint32
@@ -95,13 +105,21 @@ class FirmwareCore:
         return int(self._lib.core_period())
 
     def tick(self) -> bool:
-        """Fire the step interrupt once; True if a step was emitted."""
-        return bool(self._lib.core_tick())
+        """Fire the step interrupt once; True if a step was emitted (on any axis)."""
+        if not self.has_z:
+            return bool(self._lib.core_tick())
+        z = self._lib.core_pos_z()
+        return bool(self._lib.core_tick()) or self._lib.core_pos_z() != z
 
     # --- state --------------------------------------------------------
     @property
     def position(self) -> tuple[int, int]:
         return int(self._lib.core_pos_x()), int(self._lib.core_pos_y())
+
+    @property
+    def position_z(self) -> int | None:
+        """Z in steps; None without a Z axis."""
+        return int(self._lib.core_pos_z()) if self.has_z else None
 
     @property
     def pen_down(self) -> bool:

@@ -4,7 +4,8 @@ The firmware's own core (host build of firmware/core) runs here: bytes from
 the pty reach its receive interrupt at the configured baud rate, its main
 loop parses them, and its step interrupt fires on the schedule its timer
 asks for, in real time.  Every step can be written to a trace file
-(`t_s,x_steps,y_steps`, board time in seconds, absolute positions), and
+(`t_s,x_steps,y_steps`, board time in seconds, absolute positions; a
+machine with a Z axis runs the core built with ZAXIS=1 and adds `z_steps`), and
 every queued command the board starts to a sequence log (`seq`, the wire
 sequence number, one a line; `reset` where the board restarted), so a test
 can check that each command of a job ran exactly once.
@@ -32,7 +33,7 @@ from pathlib import Path
 from typing import IO, Optional
 
 from .faults import FaultCounts, FaultSpec, FaultyChannel
-from .firmware_core import CYCLES_PER_S, FirmwareCore
+from .firmware_core import CYCLES_PER_S, FirmwareCore, find_library
 from .kinematics import Machine
 
 
@@ -50,14 +51,14 @@ class MockBoardConfig:
 class MockBoard:
     def __init__(self, config: MockBoardConfig, core: Optional[FirmwareCore] = None) -> None:
         self.config = config
-        self.core = core or FirmwareCore()
+        self.core = core or FirmwareCore(find_library(z_axis=config.machine.z_axis))
         self._master = self._slave = -1
         self.port_path = ""
         self._open_pty()
         self._trace: Optional[IO[str]] = None
         if config.trace:
             self._trace = open(config.trace, "w", buffering=1 << 16)
-            self._trace.write("t_s,x_steps,y_steps\n")
+            self._trace.write("t_s,x_steps,y_steps" + (",z_steps" if self.core.has_z else "") + "\n")
             self._trace.flush()
         self._seq_file: Optional[IO[str]] = None
         if config.seq_log:
@@ -238,14 +239,15 @@ class MockBoard:
                 self.steps += 1
                 if self._trace:
                     x, y = core.position
+                    z = "" if not core.has_z else f",{core.position_z}"
                     if self.config.machine.kind != "cartesian":
                         # Pen position by forward kinematics, in the trace's units.
                         m = self.config.machine
                         px, py = m.pen_mm((x, y))
                         self._trace.write(f"{self.board_time:.6f},{px * m.steps_per_mm:.3f},"
-                                          f"{py * m.steps_per_mm:.3f}\n")
+                                          f"{py * m.steps_per_mm:.3f}{z}\n")
                     else:
-                        self._trace.write(f"{self.board_time:.6f},{x},{y}\n")
+                        self._trace.write(f"{self.board_time:.6f},{x},{y}{z}\n")
                     self._trace_dirty = True
             if budget % 64 == 0:
                 core.poll()
