@@ -6,7 +6,8 @@ code. Further subcommands are added with ``register`` (or by adding entries to
 the table) without changing ``main``.
 
 ``plotter check FILE`` validates a G-code program without moving anything and
-prints the moves it would make, like grbl's check mode.
+prints the moves it would make, like grbl's check mode (``--z-axis``: G-code Z
+as a third axis, see gcode.py).
 """
 
 from __future__ import annotations
@@ -19,7 +20,9 @@ from dataclasses import dataclass
 from typing import Callable, Dict, List, Optional, Sequence, TextIO
 
 from .gcode import DEFAULT_RAPID_RATE, GCodeError, Item, Move, load_program
-from .gcode_types import Dwell, Pause, PenChange
+from .gcode_steps import round_step
+from .kinematics import DEFAULT_Z_STEPS_PER_MM
+from .gcode_types import Dwell, Pause, PenChange, ZMove
 from .gcode_geometry import arc_length
 from .gcode_limits import WorkArea, check_limits
 from .gcode_steps import to_steps
@@ -55,8 +58,12 @@ def _configure_check(p: argparse.ArgumentParser) -> None:
     p.add_argument("--rapid-rate", type=float, default=DEFAULT_RAPID_RATE,
                    metavar="MM_PER_MIN",
                    help=f"feed of G0 moves (default {DEFAULT_RAPID_RATE:g} mm/min)")
+    p.add_argument("--z-axis", action="store_true",
+                   help="G-code Z moves a third axis (firmware ZAXIS=1), not the pen")
+    p.add_argument("--z-steps-per-mm", type=float, default=DEFAULT_Z_STEPS_PER_MM, metavar="N",
+                   help=f"with --z-axis: steps per mm of Z (default {DEFAULT_Z_STEPS_PER_MM:g})")
     defaults = WorkArea()
-    for name in ("x_min", "x_max", "y_min", "y_max"):
+    for name in ("x_min", "x_max", "y_min", "y_max", "z_min", "z_max"):
         p.add_argument("--" + name.replace("_", "-"), type=float,
                        default=getattr(defaults, name), metavar="MM",
                        help=f"work area limit (default {getattr(defaults, name):g})")
@@ -79,6 +86,12 @@ def move_record(move: Move) -> dict:
     return record
 
 
+def z_record(move: ZMove) -> dict:
+    """The JSON object of one Z move (``plotter check --z-axis --json``)."""
+    return {"line": move.line, "type": "z", "z": _number(move.z), "feed": _number(move.feed),
+            "rapid": move.rapid}
+
+
 def _length(move: Move) -> float:
     if move.kind == "arc":
         return arc_length((move.sx, move.sy), (move.x, move.y), (move.cx, move.cy),
@@ -86,7 +99,8 @@ def _length(move: Move) -> float:
     return math.hypot(move.x - move.sx, move.y - move.sy)
 
 
-def _print_table(items: List[Item], steps_per_mm: float, out: TextIO) -> None:
+def _print_table(items: List[Item], steps_per_mm: float, out: TextIO,
+                 z_steps_per_mm: float = 1.0) -> None:
     out.write(f"{'line':>5} {'N':>5}  {'move':<10} {'pen':<4} {'feed':>8} "
               f"{'X':>10} {'Y':>10} {'centre X':>10} {'centre Y':>10}  steps\n")
     for item in items:
@@ -108,6 +122,10 @@ def _print_table(items: List[Item], steps_per_mm: float, out: TextIO) -> None:
             out.write(f"{item.line:>5} {n:>5}  {kind:<10} {item.pen:<4} "
                       f"{item.feed:8.1f} {item.x:10.4f} {item.y:10.4f} {centre}  "
                       f"{' | '.join(pieces)}\n")
+        elif isinstance(item, ZMove):
+            kind = "rapid z" if item.rapid else "z"
+            out.write(f"{item.line:>5} {'':>5}  {kind:<10} {'':<4} {item.feed:8.1f} "
+                      f"{'Z ' + format(item.z, '.4f'):>21} {'':21}  z{round_step(item.z * z_steps_per_mm)}\n")
         elif isinstance(item, Dwell):
             out.write(f"{item.line:>5} {'':>5}  dwell {item.seconds:g} s\n")
         elif isinstance(item, PenChange):
@@ -120,14 +138,16 @@ def _summary(path: str, items: List[Item]) -> str:
     moves = [i for i in items if isinstance(i, Move)]
     drawn = sum(_length(m) for m in moves if m.pen == "down" and not m.rapid)
     travel = sum(_length(m) for m in moves if m.pen == "up" or m.rapid)
-    minutes = sum(_length(m) / m.feed for m in moves)
+    z_moves = [i for i in items if isinstance(i, ZMove)]
+    minutes = sum(_length(m) / m.feed for m in moves) + sum(abs(m.z - m.sz) / m.feed for m in z_moves)
     seconds = 60.0 * minutes + sum(i.seconds for i in items if isinstance(i, Dwell))
     xs = [0.0] + [m.x for m in moves]
     ys = [0.0] + [m.y for m in moves]
     arcs = sum(1 for m in moves if m.kind == "arc")
     rapids = sum(1 for m in moves if m.rapid)
     return (f"{path}: OK, {len(moves)} moves ({rapids} rapid, "
-            f"{len(moves) - rapids - arcs} lines, {arcs} arcs); drawn {drawn:.1f} mm, "
+            f"{len(moves) - rapids - arcs} lines, {arcs} arcs"
+            + (f", {len(z_moves)} Z moves" if z_moves else "") + f"); drawn {drawn:.1f} mm, "
             f"travel {travel:.1f} mm, about {seconds:.0f} s at the programmed feeds; "
             f"end points within X {min(xs):.2f}..{max(xs):.2f}, "
             f"Y {min(ys):.2f}..{max(ys):.2f} mm")
@@ -148,10 +168,14 @@ def run_check(args: argparse.Namespace, out: TextIO = None, err: TextIO = None) 
     if not (args.rapid_rate > 0 and math.isfinite(args.rapid_rate)):
         err.write("--rapid-rate must be a positive number\n")
         return EXIT_BAD_PROGRAM
+    if not (args.z_steps_per_mm > 0 and math.isfinite(args.z_steps_per_mm)):
+        err.write("--z-steps-per-mm must be a positive number\n")
+        return EXIT_BAD_PROGRAM
     try:
-        items = load_program(data, rapid_rate=args.rapid_rate)
+        items = load_program(data, rapid_rate=args.rapid_rate, z_axis=args.z_axis)
         if not args.no_limits:
-            check_limits(items, WorkArea(args.x_min, args.x_max, args.y_min, args.y_max))
+            check_limits(items, WorkArea(args.x_min, args.x_max, args.y_min, args.y_max,
+                                         args.z_min, args.z_max))
     except GCodeError as exc:
         err.write(f"{args.file}:{exc}\n")
         return EXIT_BAD_PROGRAM
@@ -159,8 +183,10 @@ def run_check(args: argparse.Namespace, out: TextIO = None, err: TextIO = None) 
         for item in items:
             if isinstance(item, Move):
                 out.write(json.dumps(move_record(item)) + "\n")
+            elif isinstance(item, ZMove):
+                out.write(json.dumps(z_record(item)) + "\n")
         return EXIT_OK
-    _print_table(items, args.steps_per_mm, out)
+    _print_table(items, args.steps_per_mm, out, args.z_steps_per_mm)
     out.write(_summary(args.file, items) + "\n")
     return EXIT_OK
 

@@ -4,6 +4,10 @@ The firmware's feed is in steps per second, and point-by-point interpolation
 moves one axis at a time, so a path of length s mm drawn as n steps needs
 n / s * v steps per second for a path speed of v mm/s (a 45-degree line takes
 1.41 times more steps per mm than an axis-parallel one).
+
+A third axis (firmware build ZAXIS=1) moves alone with the command `Z dz`;
+its moves start and end at rest, like pen changes, since the look-ahead
+planner's junctions are corners of the XY path.
 """
 from __future__ import annotations
 
@@ -11,8 +15,8 @@ import math
 from dataclasses import dataclass
 from typing import Callable, Iterable, List, Optional, Tuple
 
-from .gcode_steps import StepMove
-from .gcode_types import Dwell, Pause, PenChange
+from .gcode_steps import StepMove, round_step
+from .gcode_types import Dwell, Pause, PenChange, ZMove
 
 MAX_DELTA = 32767          # the firmware's coordinate range per command
 MIN_RATE = 15              # steps/s: the firmware's slowest feed
@@ -25,8 +29,8 @@ Vec = Tuple[float, float]
 
 @dataclass
 class BoardCommand:
-    verb: str                      # L, C, A (motion), P (pen), D (dwell)
-    args: Tuple[int, ...]          # dx dy [i j] for motion, the value for P and D
+    verb: str                      # L, C, A (motion), Z (the Z axis), P (pen), D (dwell)
+    args: Tuple[int, ...]          # dx dy [i j] for motion, dz for Z, the value for P and D
     line: int                      # G-code line it came from (0: none)
     steps: int = 0                 # steps the board takes for it
     rate: int = 0                  # cruise rate, steps/s (motion)
@@ -36,13 +40,14 @@ class BoardCommand:
 
     @property
     def is_motion(self) -> bool:
+        """A move of the XY path (what the look-ahead planner chains)."""
         return self.verb in ("L", "C", "A")
 
     @property
     def text(self) -> str:
         """The command on the wire (PROTOCOL.md), without sequence number and checksum."""
         parts = [self.verb, *map(str, self.args)]
-        if self.is_motion:
+        if self.is_motion or self.verb == "Z":
             parts += [str(self.rate), str(self.exit_rate)]
         return " ".join(parts)
 
@@ -132,10 +137,29 @@ def straight(dx: int, dy: int, line: int, feed_mm_min: float, length_mm: float) 
     return BoardCommand("L", (dx, dy), line, n, _rate(feed_mm_min, n, length_mm), dir_in=u, dir_out=u)
 
 
+def z_axis_motion(z_steps_per_mm: float) -> MotionConverter:
+    """Board commands for one ZMove: `Z dz` from the start rounded to steps
+    to the end rounded to steps, both absolute so that errors never add up;
+    split beyond the board's 16-bit range."""
+    def convert(item: ZMove, feed: float) -> List[BoardCommand]:
+        dz = round_step(item.z * z_steps_per_mm) - round_step(item.sz * z_steps_per_mm)
+        pieces = math.ceil(abs(dz) / MAX_DELTA)      # none for a move under half a step
+        out, done = [], 0
+        for k in range(1, pieces + 1):
+            to = round(dz * k / pieces)
+            step, done = to - done, to
+            out.append(BoardCommand("Z", (step,), item.line, abs(step),
+                                    _rate(feed, abs(step), abs(step) / z_steps_per_mm)))
+        return out
+    return convert
+
+
 def to_commands(items: Iterable[object], motion: MotionConverter,
-                rapid_feed: float = 6000.0) -> List[BoardCommand]:
+                rapid_feed: float = 6000.0,
+                z_motion: Optional[MotionConverter] = None) -> List[BoardCommand]:
     """Board commands for a program's items; `motion` turns each move into
-    board motion for the machine; pen changes only when needed."""
+    board motion for the machine, `z_motion` each ZMove; pen changes only
+    when needed."""
     out: List[BoardCommand] = []
     pen: Optional[str] = None
 
@@ -156,6 +180,10 @@ def to_commands(items: Iterable[object], motion: MotionConverter,
         elif isinstance(item, Pause):
             # M0: the board has no operator pause; the pen comes to rest here.
             out.append(BoardCommand("D", (1,), item.line))
+        elif isinstance(item, ZMove):
+            if z_motion is None:
+                raise ValueError(f"line {item.line}: a Z move for a machine without a Z axis")
+            out.extend(z_motion(item, rapid_feed if item.rapid else item.feed))
         else:
             set_pen("up" if item.rapid else item.pen, item.line)
             out.extend(motion(item, rapid_feed if item.rapid else item.feed))

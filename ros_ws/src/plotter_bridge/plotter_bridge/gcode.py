@@ -8,7 +8,7 @@ The subset (case-insensitive; one block per physical line):
   longer arc). G2/G3 ending where they start with I/J make a full circle.
 - G4 P<seconds> dwell; G17 (XY plane; G18/G19 are rejected); G20/G21 inch/mm;
   G90/G91 absolute/incremental; G92 X/Y sets the current position (an offset;
-  Z is accepted and has no effect); G94 units per minute; G61/G64 (path
+  Z is accepted and has no effect on the pen); G94 units per minute; G61/G64 (path
   control) are accepted and have no effect.
 - F feed (units per minute, modal; in the units in force after the line's
   G20/G21, and kept as a speed when the units change later); M3 pen down, M5
@@ -18,6 +18,14 @@ The subset (case-insensitive; one block per physical line):
   with Z and X/Y changes the pen first and then moves; with Z alone it only
   changes the pen. G0 always travels with the pen up; the pen state set by the
   program applies again to the following G1/G2/G3 moves.
+- With ``z_axis`` (a machine with a third axis: pen height or engraving
+  depth), Z is that axis instead, in mm from the power-on origin, starting
+  where the board's Z is; G92 Z offsets it like X and Y. A change of Z is a
+  ZMove of its own, at the line's feed (G1) or the rapid rate (G0), in the
+  pen's order: before the XY part of the line, except that G0 goes down
+  after its travel (retract, then travel; travel, then plunge). X and Y stay
+  interpolated together; Z never moves with them, so an arc that changes Z
+  (a helix) is refused. M3/M5 and G0's pen-up still drive the pen output.
 - N words, comments in parentheses and after ';', '%' lines, blank lines.
 
 Effects of one line happen in LinuxCNC's order: M3/M5, G4, modes (G17,
@@ -39,11 +47,11 @@ from typing import Tuple, Dict, List, Optional
 
 from . import gcode_geometry as geometry
 from .gcode_types import (PEN_DOWN, PEN_UP, Dwell, GCodeError, Item, Move, Pause,
-                          PenChange)
+                          PenChange, ZMove)
 from .gcode_limits import WorkArea, check_limits
 from .gcode_steps import StepMove, to_steps
 
-__all__ = ["GCodeError", "Move", "Dwell", "PenChange", "Pause", "Item", "WorkArea",
+__all__ = ["GCodeError", "Move", "ZMove", "Dwell", "PenChange", "Pause", "Item", "WorkArea",
            "StepMove", "check_limits", "to_steps", "parse", "decode_program",
            "load_program", "moves_of", "DEFAULT_RAPID_RATE"]
 
@@ -82,6 +90,8 @@ class _State:
     offset_x: float = 0.0
     offset_y: float = 0.0
     z: float = 0.0
+    offset_z: float = 0.0
+    z_axis: bool = False         # Z is a third axis (ZMove), not the pen
     mm_per_unit: float = 1.0
     absolute: bool = True
     motion: Optional[int] = None
@@ -247,9 +257,23 @@ def _motion(st: _State, words: Dict[str, float], line: int, n: Optional[int],
     if "Y" in words:
         ty = words["Y"] * u + st.offset_y if st.absolute else st.y + words["Y"] * u
     new_pen = None
-    if "Z" in words:
+    z_move: Optional[ZMove] = None
+    if "Z" in words and st.z_axis:
+        tz = words["Z"] * u + st.offset_z if st.absolute else st.z + words["Z"] * u
+        if abs(tz - st.z) > SAME_POINT_MM:
+            if code in (20, 30):
+                raise GCodeError(line, f"helical arc: {_g_name(code)} with a Z move (Z{st.z:g} to "
+                                       f"Z{tz:g} mm) is not supported; Z moves alone, so put the "
+                                       f"Z move on a line of its own before the arc")
+            z_move = ZMove(line, st.z, tz, rapid_rate if code == 0 else st.feed, rapid=code == 0)
+            st.z = tz
+    elif "Z" in words:
         st.z = words["Z"] * u if st.absolute else st.z + words["Z"] * u
         new_pen = PEN_DOWN if st.z <= 0.0 else PEN_UP
+    # As the pen: a rapid goes down at its end, anything else changes Z first.
+    z_after = z_move is not None and code == 0 and z_move.z < z_move.sz
+    if z_move is not None and not z_after:
+        st.items.append(z_move)
     lowered_after = code == 0 and new_pen == PEN_DOWN
     if new_pen is not None and not lowered_after:
         _set_pen(st, new_pen, line)
@@ -266,6 +290,8 @@ def _motion(st: _State, words: Dict[str, float], line: int, n: Optional[int],
     st.x, st.y = tx, ty
     if lowered_after:
         _set_pen(st, PEN_DOWN, line)
+    if z_after:
+        st.items.append(z_move)
 
 
 def _execute(st: _State, words: List[Word], line: int, rapid_rate: float) -> bool:
@@ -309,6 +335,8 @@ def _execute(st: _State, words: List[Word], line: int, rapid_rate: float) -> boo
             st.offset_x = st.x - o["X"] * u
         if "Y" in o:
             st.offset_y = st.y - o["Y"] * u
+        if "Z" in o and st.z_axis:
+            st.offset_z = st.z - o["Z"] * u
     else:
         if motion_word is not None:
             st.motion = motion_word
@@ -330,16 +358,20 @@ def _execute(st: _State, words: List[Word], line: int, rapid_rate: float) -> boo
 
 
 def parse(text: str, rapid_rate: float = DEFAULT_RAPID_RATE,
-          start: Tuple[float, float] = (0.0, 0.0)) -> List[Item]:
+          start: Tuple[float, float] = (0.0, 0.0), *, z_axis: bool = False,
+          start_z: float = 0.0) -> List[Item]:
     """Parse a whole program; raise GCodeError for the first bad line.
 
     Returns the moves, dwells, pen changes and pauses in order, in machine
     coordinates (mm, mm/min) from the power-on origin, starting at `start`
-    (where the pen is when the program begins) with the pen up.
+    (where the pen is when the program begins) with the pen up. With
+    `z_axis`, Z words are moves of a third axis (ZMove items) that is at
+    `start_z` (mm) when the program begins; otherwise they move the pen.
     """
     if not (math.isfinite(rapid_rate) and rapid_rate > 0.0):
         raise ValueError(f"rapid rate must be positive, not {rapid_rate!r}")
-    st = _State(x=float(start[0]), y=float(start[1]))
+    st = _State(x=float(start[0]), y=float(start[1]), z_axis=z_axis,
+                z=float(start_z) if z_axis else 0.0)
     lines = text.split("\n")
     if lines and lines[-1] == "":
         lines.pop()
@@ -353,7 +385,7 @@ def parse(text: str, rapid_rate: float = DEFAULT_RAPID_RATE,
         if words and _execute(st, words, number, rapid_rate):
             last_line = number
             break
-    if not any(isinstance(item, Move) for item in st.items):
+    if not any(isinstance(item, (Move, ZMove)) for item in st.items):
         raise GCodeError(last_line, "empty program: no G-code words"
                          if blank else "program makes no moves")
     return st.items
@@ -370,9 +402,10 @@ def decode_program(data: bytes) -> str:
 
 
 def load_program(data: bytes, rapid_rate: float = DEFAULT_RAPID_RATE,
-                 start: Tuple[float, float] = (0.0, 0.0)) -> List[Item]:
+                 start: Tuple[float, float] = (0.0, 0.0), *, z_axis: bool = False,
+                 start_z: float = 0.0) -> List[Item]:
     """decode_program then parse."""
-    return parse(decode_program(data), rapid_rate, start)
+    return parse(decode_program(data), rapid_rate, start, z_axis=z_axis, start_z=start_z)
 
 
 def moves_of(items: List[Item]) -> List[Move]:

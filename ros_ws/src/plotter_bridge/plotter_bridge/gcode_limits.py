@@ -5,7 +5,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 from typing import Iterable
 
-from .gcode_types import GCodeError, Item, Move
+from .gcode_types import GCodeError, Item, Move, ZMove
 from .gcode_geometry import arc_extreme_points
 
 # Points this close outside the area (mm) still count as inside: rounding noise.
@@ -14,12 +14,15 @@ LIMIT_EPSILON = 1e-9
 
 @dataclass(frozen=True)
 class WorkArea:
-    """Reachable area in mm, in machine coordinates from the power-on origin."""
+    """Reachable area in mm, in machine coordinates from the power-on origin;
+    z_min..z_max is the travel of a Z axis (ZMove items; a pen has none)."""
 
     x_min: float = 0.0
     x_max: float = 200.0
     y_min: float = 0.0
     y_max: float = 200.0
+    z_min: float = -50.0
+    z_max: float = 50.0
 
     def contains(self, x: float, y: float) -> bool:
         return (self.x_min - LIMIT_EPSILON <= x <= self.x_max + LIMIT_EPSILON
@@ -31,7 +34,8 @@ class WorkArea:
 
 
 def check_limits(items: Iterable[Item], limits: WorkArea = WorkArea()) -> None:
-    """Raise GCodeError for the first move that leaves the work area.
+    """Raise GCodeError for the first move that leaves the work area (or
+    the Z axis' travel).
 
     Lines are checked at their end points (each start is the previous end, or
     the origin); arcs at their end points and at the extreme points of the
@@ -39,6 +43,10 @@ def check_limits(items: Iterable[Item], limits: WorkArea = WorkArea()) -> None:
     its ends are inside.
     """
     for item in items:
+        if isinstance(item, ZMove) and not (limits.z_min - LIMIT_EPSILON <= item.z
+                                            <= limits.z_max + LIMIT_EPSILON):
+            raise GCodeError(item.line, f"Z move to Z{item.z:.4f} is outside the Z axis' travel "
+                                        f"(Z {limits.z_min:g}..{limits.z_max:g} mm)")
         if not isinstance(item, Move):
             continue
         if not limits.contains(item.x, item.y):

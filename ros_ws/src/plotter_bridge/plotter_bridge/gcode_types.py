@@ -55,6 +55,19 @@ class Move:
 
 
 @dataclass(frozen=True)
+class ZMove:
+    """The Z axis alone from ``sz`` to ``z`` (mm), when G-code Z is a third
+    axis rather than the pen (gcode.parse with ``z_axis``). ``rapid`` moves
+    (G0) go at the rapid rate; ``feed`` is the rate in mm/min either way."""
+
+    line: int
+    sz: float
+    z: float
+    feed: float
+    rapid: bool = False
+
+
+@dataclass(frozen=True)
 class Dwell:
     """G4: wait ``seconds`` before the next item."""
 
@@ -81,4 +94,4 @@ class Pause:
     line: int
 
 
-Item = Union[Move, Dwell, PenChange, Pause]
+Item = Union[Move, ZMove, Dwell, PenChange, Pause]

@@ -6,7 +6,9 @@ kept beside it (`<id>.progress.json`: commands the board finished, state,
 message), each file replaced atomically.  If the streamer dies, the job
 stops (the bridge's lease runs out) and a later `resume` continues it from
 the first command not finished: the pen travels, raised, to where that
-command starts if it is not already there, and the rest runs.
+command starts if it is not already there, and the rest runs.  A Z axis
+goes back to where that command starts as well, alone, in the order of a
+G0: up before the travel, down after it.
 
 Pure functions and a small file store; no ROS.
 """
@@ -39,6 +41,7 @@ class JobRecord:
     start: Tuple[int, int]            # pen position in steps when the job began
     start_pen: bool = False
     rapid_rate: int = MAX_RATE        # steps/s for the travel of a resume
+    start_z: Optional[int] = None     # Z in steps when the job began (None: the board has no Z axis)
 
 
 @dataclass
@@ -117,6 +120,11 @@ def _moves(text: str) -> Tuple[int, int]:
     return 0, 0
 
 
+def _z(text: str) -> int:
+    parts = text.split()
+    return int(parts[1]) if parts and parts[0] == "Z" else 0
+
+
 def _pen(text: str) -> Optional[bool]:
     parts = text.split()
     if parts and parts[0] == "P":
@@ -137,6 +145,24 @@ def state_before(record: JobRecord, index: int) -> Tuple[Tuple[int, int], bool]:
     return (x, y), pen
 
 
+def z_before(record: JobRecord, index: int) -> Optional[int]:
+    """Where the Z axis is before command `index` (None without one)."""
+    if record.start_z is None:
+        return None
+    return record.start_z + sum(_z(text) for text in record.commands[:index])
+
+
+def z_travel(dz: int, rate: int) -> List[str]:
+    """A Z move split into pieces the firmware accepts."""
+    n = -(-abs(dz) // MAX_DELTA)
+    out, done = [], 0
+    for k in range(1, n + 1):
+        to = dz * k // n
+        out.append(f"Z {to - done} {rate} 0")
+        done = to
+    return out
+
+
 def travel(dx: int, dy: int, rate: int) -> List[str]:
     """A straight move split into pieces the firmware accepts."""
     n = max(1, -(-max(abs(dx), abs(dy)) // MAX_DELTA))
@@ -149,22 +175,31 @@ def travel(dx: int, dy: int, rate: int) -> List[str]:
 
 
 def resume_commands(record: JobRecord, completed: int, pen_at: Tuple[int, int],
-                    pen_down: bool) -> Tuple[List[str], List[int]]:
+                    pen_down: bool, z_at: Optional[int] = None) -> Tuple[List[str], List[int]]:
     """Board commands that finish the job from command `completed` on, for a
-    pen now at `pen_at` (steps, down or not)."""
+    pen now at `pen_at` (steps, down or not) and a Z axis at `z_at` (steps;
+    None: no Z axis)."""
     if completed >= len(record.commands):
         return [], []
     (x, y), pen = state_before(record, completed)
+    z = z_before(record, completed)
     line = record.lines[completed]
     rate = max(MIN_RATE, min(MAX_RATE, record.rapid_rate))
+    dz = 0 if z is None or z_at is None else z - z_at
     head: List[str] = []
     if (x, y) != tuple(pen_at):
         if pen_down:
             head.append("P 0")
+        if dz > 0:
+            head += z_travel(dz, rate)
         head += travel(x - pen_at[0], y - pen_at[1], rate)
+        if dz < 0:
+            head += z_travel(dz, rate)
         if pen:
             head.append("P 1")
-    elif pen != pen_down:
-        head.append("P 1" if pen else "P 0")
+    else:
+        head += z_travel(dz, rate)
+        if pen != pen_down:
+            head.append("P 1" if pen else "P 0")
     commands = head + record.commands[completed:]
     return commands, [line] * len(head) + record.lines[completed:]

@@ -66,6 +66,8 @@ class HangingGeometry:
 
 
 MACHINES = ("cartesian", "hanging")
+Z_MODES = ("pen", "axis")     # what G-code Z drives: the pen up/down, or a third axis (ZAXIS=1)
+DEFAULT_Z_STEPS_PER_MM = 400.0   # a leadscrew of 8 mm lead at 3200 steps per turn
 
 
 @dataclass(frozen=True)
@@ -75,10 +77,17 @@ class Machine:
     kind: str = "cartesian"
     steps_per_mm: float = 80.0                     # cartesian: steps per mm of each axis
     hanging: HangingGeometry = HangingGeometry()
+    z_mode: str = "pen"                            # see Z_MODES
+    z_steps_per_mm: float = DEFAULT_Z_STEPS_PER_MM  # z_mode axis: steps per mm of Z
 
     def __post_init__(self) -> None:
         if self.kind not in MACHINES:
             raise ValueError(f"machine must be one of {', '.join(MACHINES)}, not {self.kind!r}")
+        check_z(self.z_mode, self.z_steps_per_mm)
+
+    @property
+    def z_axis(self) -> bool:
+        return self.z_mode == "axis"
 
     def pen_mm(self, motor: Point) -> Point:
         if self.kind == "hanging":
@@ -89,6 +98,14 @@ class Machine:
         if self.kind == "hanging":
             return self.hanging.inverse(pen)
         return (pen[0] * self.steps_per_mm, pen[1] * self.steps_per_mm)
+
+
+def check_z(z_mode: str, z_steps_per_mm: float) -> None:
+    """ValueError naming the bad value of a Z mode or Z scale."""
+    if z_mode not in Z_MODES:
+        raise ValueError(f"z_mode must be one of {', '.join(Z_MODES)}, not {z_mode!r}")
+    if not (math.isfinite(z_steps_per_mm) and z_steps_per_mm > 0):
+        raise ValueError(f"z_steps_per_mm must be a positive number, not {z_steps_per_mm!r}")
 
 
 def motor_pieces(path: Callable[[float], Point], geometry: HangingGeometry,

@@ -8,12 +8,12 @@ from __future__ import annotations
 from dataclasses import dataclass
 from typing import List, Tuple
 
-from .commands import FIRMWARE_ACCEL, BoardCommand, cartesian_motion, to_commands
+from .commands import FIRMWARE_ACCEL, BoardCommand, cartesian_motion, to_commands, z_axis_motion
 from .gcode import load_program
 from .gcode_limits import WorkArea, check_limits
 from .gcode_steps import to_steps
 from .gcode_types import GCodeError
-from .kinematics import HangingGeometry, hanging_motion
+from .kinematics import DEFAULT_Z_STEPS_PER_MM, HangingGeometry, check_z, hanging_motion
 from .planner import PlannerLimits, cap_for_link, plan
 
 MAX_PROGRAM_BYTES = 4 * 1024 * 1024
@@ -31,6 +31,11 @@ class StreamerConfig:
     hanging: HangingGeometry = HangingGeometry()
     tolerance: float = 0.1             # hanging: largest pen deviation from the path, mm
     link_baud: int = 0                 # > 0: slow commands down to what a link of this baud can feed
+    z_mode: str = "pen"                # G-code Z: the pen, or "axis": a third axis (firmware ZAXIS=1)
+    z_steps_per_mm: float = DEFAULT_Z_STEPS_PER_MM   # z_mode axis: steps per mm of Z
+
+    def __post_init__(self) -> None:
+        check_z(self.z_mode, self.z_steps_per_mm)
 
     def motor_steps_per_mm(self) -> float:
         return self.hanging.steps_per_mm if self.machine == "hanging" else self.steps_per_mm
@@ -42,9 +47,9 @@ class StreamerConfig:
 
 
 def compile_program(text: str, config: StreamerConfig,
-                    start_steps: Tuple[int, int] = (0, 0)) -> List[BoardCommand]:
-    """G-code text to board commands for a pen now at start_steps; raises
-    GCodeError naming the line."""
+                    start_steps: Tuple[int, int] = (0, 0), start_z_steps: int = 0) -> List[BoardCommand]:
+    """G-code text to board commands for a pen now at start_steps (and, with
+    z_mode axis, a Z axis at start_z_steps); raises GCodeError naming the line."""
     data = text.encode("utf-8", "surrogateescape") if isinstance(text, str) else text
     if len(data) > MAX_PROGRAM_BYTES:
         raise GCodeError(0, f"program too large: {len(data)} bytes (limit {MAX_PROGRAM_BYTES})")
@@ -52,13 +57,17 @@ def compile_program(text: str, config: StreamerConfig,
         start = config.hanging.forward(start_steps)
     else:
         start = (start_steps[0] / config.steps_per_mm, start_steps[1] / config.steps_per_mm)
-    items = load_program(data, rapid_rate=config.rapid_feed, start=start)
+    z_axis = config.z_mode == "axis"
+    items = load_program(data, rapid_rate=config.rapid_feed, start=start, z_axis=z_axis,
+                         start_z=start_z_steps / config.z_steps_per_mm)
     check_limits(items, config.area)
+    z_motion = z_axis_motion(config.z_steps_per_mm) if z_axis else None
     if config.machine == "hanging":
-        commands = to_commands(items, hanging_motion(config.hanging, config.tolerance), config.rapid_feed)
+        commands = to_commands(items, hanging_motion(config.hanging, config.tolerance), config.rapid_feed,
+                               z_motion)
     else:
         commands = to_commands(to_steps(items, config.steps_per_mm),
-                               cartesian_motion(config.steps_per_mm), config.rapid_feed)
+                               cartesian_motion(config.steps_per_mm), config.rapid_feed, z_motion)
     if config.link_baud > 0:
         cap_for_link(commands, config.link_baud / 10.0)
     return plan(commands, config.limits()) if config.lookahead else commands
