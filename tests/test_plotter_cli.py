@@ -88,3 +88,38 @@ def test_stream_on_the_hanging_machine(tmp_path):
     rows = trace.read_text().splitlines()[1:]
     x, y = (float(v) / 80 for v in rows[-1].split(",")[1:])   # pen mm times steps_per_mm
     assert math.hypot(x - 500, y - 300) < 0.05
+
+
+def test_stream_with_a_z_axis_on_the_mock_board(tmp_path):
+    from firmware_build import host_library
+    host_library(ZAXIS="1")                     # the mock board's core with a Z axis
+    program = tmp_path / "engrave.gcode"
+    program.write_text("G21 G90\nG0 X10 Y10 Z2\nG1 Z-0.5 F300\nG1 X30 Y20 F1200\nG2 X50 Y20 I10 J0\n"
+                       "G0 Z2\nG0 X60 Y60 Z-1\nG1 X70\nG0 Z5\nM2\n")
+    trace = tmp_path / "trace.csv"
+    r = plotter("stream", program, "--mock", "--z-axis", "--trace", trace, "--quiet")
+    assert r.returncode == 0, r.stderr
+    assert "X70.000 Y60.000 Z5.000 mm" in r.stdout
+    rows = read_trace(trace, z=True)
+    assert rows[-1][1:] == (70 * 80, 60 * 80, 5 * 400)
+    # X and Y move only with Z at rest where the program puts it: up for the
+    # travel, down for the cuts; the first cut, line and arc, on its path.
+    moved = [(x, y, z) for (_, px, py, _), (_, x, y, z) in zip(rows, rows[1:]) if (x, y) != (px, py)]
+    assert {z for _, _, z in moved} == {2 * 400, -200, -400}
+    cut = [(x, y) for x, y, z in moved if z == -200]
+    assert cut[-1] == (50 * 80, 20 * 80)
+    for x, y in cut:
+        on_line = abs((x - 800) * 800 - (y - 800) * 1600) / math.hypot(1600, 800) <= 1.0 and x <= 2400
+        on_arc = abs(math.hypot(x - 3200, y - 1600) - 800) <= 1.0
+        assert on_line or on_arc, (x, y)
+    assert sum(1 for x, y in cut if y > 1600) > 1000         # the arc, clockwise over the top
+
+
+def test_helix_with_a_z_axis_is_refused_before_anything_starts(tmp_path):
+    program = tmp_path / "helix.gcode"
+    program.write_text("G21 G90\nG0 X50 Y50\nG1 Z-1 F300\nG2 X60 Y50 I5 J0 Z-2\n")
+    trace = tmp_path / "trace.csv"
+    r = plotter("stream", program, "--mock", "--z-axis", "--trace", trace, "--quiet")
+    assert r.returncode == 2
+    assert "line 4" in r.stderr and "helical arc" in r.stderr
+    assert not trace.exists()

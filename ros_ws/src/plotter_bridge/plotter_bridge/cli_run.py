@@ -7,6 +7,7 @@ area from the pen's actual position before anything moves.
 from __future__ import annotations
 
 import argparse
+import math
 import sys
 import tempfile
 import threading
@@ -16,6 +17,7 @@ from typing import List, TextIO
 
 from .cli import EXIT_BAD_PROGRAM, EXIT_OK, Command, register
 from .gcode_types import GCodeError
+from .kinematics import DEFAULT_Z_STEPS_PER_MM
 
 EXIT_FAILED = 1
 HANGING_AREA = (0.0, 800.0, 0.0, 1000.0)   # seed 003's board below its pulleys, mm
@@ -44,6 +46,13 @@ def _connection_args(p: argparse.ArgumentParser) -> None:
                    help="kinematics: an XY table (default), or seed 003's hanging two-string plotter")
     p.add_argument("--area", type=float, nargs=4, metavar=("X_MIN", "X_MAX", "Y_MIN", "Y_MAX"), default=None,
                    help="work area in mm (default 0 200 0 200; hanging: 0 800 0 1000)")
+    p.add_argument("--z-axis", action="store_true",
+                   help="G-code Z moves a third axis (pen height, engraving depth; firmware built with "
+                        "ZAXIS=1) instead of lifting and lowering the pen")
+    p.add_argument("--z-steps-per-mm", type=float, default=None, metavar="N",
+                   help=f"with --z-axis: motor steps per mm of Z (default {DEFAULT_Z_STEPS_PER_MM:g})")
+    p.add_argument("--z-range", type=float, nargs=2, metavar=("Z_MIN", "Z_MAX"), default=None,
+                   help="with --z-axis: travel of Z in mm from the power-on origin (default -50 50)")
     p.add_argument("--quiet", action="store_true", help="no progress bar")
     p.add_argument("--svg", metavar="OUT.svg", default="",
                    help="write a picture of what the board drew, the programmed path underneath")
@@ -57,11 +66,20 @@ def _graph_options(args: argparse.Namespace):
     faults = parse_faults(args.faults)
     if (args.faults or args.seq_log) and not args.mock:
         raise ValueError("--faults and --seq-log need --mock")
+    if (args.z_range or args.z_steps_per_mm is not None) and not args.z_axis:
+        raise ValueError("--z-range and --z-steps-per-mm need --z-axis")
+    z_steps_per_mm = DEFAULT_Z_STEPS_PER_MM if args.z_steps_per_mm is None else args.z_steps_per_mm
+    if not (math.isfinite(z_steps_per_mm) and z_steps_per_mm > 0):
+        raise ValueError("--z-steps-per-mm must be a positive number")
+    if args.z_range and not args.z_range[0] < args.z_range[1]:
+        raise ValueError("--z-range: Z_MIN must be below Z_MAX")
     return GraphOptions(port=args.port or "", mock=args.mock, baud=args.baud,
                         steps_per_mm=args.steps_per_mm, trace=args.trace,
                         namespace=args.namespace, faults=faults, seq_log=args.seq_log,
                         journal_dir=args.journal, machine=args.machine,
-                        area=tuple(args.area) if args.area else HANGING_AREA if args.machine == "hanging" else None)
+                        area=tuple(args.area) if args.area else HANGING_AREA if args.machine == "hanging" else None,
+                        z_axis=args.z_axis, z_steps_per_mm=z_steps_per_mm,
+                        z_range=tuple(args.z_range) if args.z_range else None)
 
 
 def reliability_report(graph) -> str:
@@ -149,7 +167,8 @@ def run_program_text(text: str, name: str, args: argparse.Namespace,
     resume_id = getattr(args, "resume_id", "")
     try:
         if not resume_id:
-            parse(text)       # syntax first; the work area is checked from the pen's real position
+            # Syntax first; the work area is checked from the pen's real position.
+            parse(text, z_axis=getattr(args, "z_axis", False))
     except GCodeError as exc:
         err.write(f"{name}:{exc}\n")
         return EXIT_BAD_PROGRAM
@@ -183,7 +202,8 @@ def run_program_text(text: str, name: str, args: argparse.Namespace,
             write_pictures(args, "" if resume_id else text, name, start,
                            options.trace if options.mock else "", recorder.samples, err)
     if result.success:
-        out.write(f"{name}: done, pen at X{result.x_mm:.3f} Y{result.y_mm:.3f} mm\n")
+        z = "" if result.z_mm is None else f" Z{result.z_mm:.3f}"
+        out.write(f"{name}: done, pen at X{result.x_mm:.3f} Y{result.y_mm:.3f}{z} mm\n")
         return EXIT_OK
     err.write(f"{name}: {result.message}\n")
     if result.job_id:

@@ -14,6 +14,11 @@ lease runs out and the bridge stops the job at a command boundary.  A
 `run_program` goal with `resume` set to the job's id (`plotter resume ID`)
 then finishes it from the first command not completed.
 
+With `z_mode:=axis` (a machine with a third axis, firmware ZAXIS=1) G-code Z
+moves that axis, from where the board reports it, inside `z_min`..`z_max`
+(gcode.py says in which order with X and Y); `z_mode:=pen`, the default,
+keeps Z for the pen.
+
 Inputs are checked before anything moves: an oversized or malformed program,
 a bad name or an unknown job id is refused with the reason (an aborted goal,
 or a message on `program_error` for the topic), and the node goes on.
@@ -87,6 +92,8 @@ class GCodeStreamer(Node):
         self.declare_parameter("x_max", 200.0, d(description="work area, mm"))
         self.declare_parameter("y_min", 0.0, d(description="work area, mm"))
         self.declare_parameter("y_max", 200.0, d(description="work area, mm"))
+        self.declare_parameter("z_min", -50.0, d(description="z_mode axis: travel of Z, mm from the power-on origin"))
+        self.declare_parameter("z_max", 50.0, d(description="z_mode axis: travel of Z, mm"))
         self.declare_parameter("acceleration", 1000.0, d(description="maximum acceleration, mm/s^2 (within the firmware's ramp)"))
         self.declare_parameter("junction_deviation", 0.05, d(description="corner rule of the look-ahead planner, mm"))
         self.declare_parameter("lookahead", True, d(description="plan speeds across commands; false stops at every command"))
@@ -121,18 +128,19 @@ class GCodeStreamer(Node):
 
     def _read_config(self) -> StreamerConfig:
         g = lambda n: float(self.get_parameter(n).value)  # noqa: E731
-        names = ("steps_per_mm", "rapid_feed", "x_min", "x_max", "y_min", "y_max",
+        names = ("steps_per_mm", "rapid_feed", "x_min", "x_max", "y_min", "y_max", "z_min", "z_max",
                  "acceleration", "junction_deviation", "tolerance")
         v = dict(zip(names, (g(n) for n in names)))
         if not all(math.isfinite(x) for x in v.values()) or v["steps_per_mm"] <= 0 or v["rapid_feed"] <= 0 \
-                or v["x_min"] >= v["x_max"] or v["y_min"] >= v["y_max"] or v["acceleration"] <= 0 \
-                or v["junction_deviation"] < 0 or v["tolerance"] <= 0:
+                or v["x_min"] >= v["x_max"] or v["y_min"] >= v["y_max"] or v["z_min"] >= v["z_max"] \
+                or v["acceleration"] <= 0 or v["junction_deviation"] < 0 or v["tolerance"] <= 0:
             raise ValueError(f"bad gcode_streamer parameters: {v}")
         return StreamerConfig(v["steps_per_mm"], v["rapid_feed"],
-                              WorkArea(v["x_min"], v["x_max"], v["y_min"], v["y_max"]),
+                              WorkArea(v["x_min"], v["x_max"], v["y_min"], v["y_max"], v["z_min"], v["z_max"]),
                               v["acceleration"], v["junction_deviation"],
                               bool(self.get_parameter("lookahead").value),
-                              self.machine.kind, self.machine.hanging, v["tolerance"])
+                              self.machine.kind, self.machine.hanging, v["tolerance"],
+                              z_mode=self.machine.z_mode, z_steps_per_mm=self.machine.z_steps_per_mm)
 
     def _on_state(self, msg: BoardState) -> None:
         with self._board_changed:
@@ -208,14 +216,18 @@ class GCodeStreamer(Node):
             if resume:
                 return self._resume(resume, board, goal_handle)
             try:
-                commands = compile_program(text, self.config, start)
+                commands = compile_program(text, self.config, start, board.z_steps)
             except GCodeError as exc:
                 return Outcome(False, str(exc))
             if not commands:
                 return Outcome(True, "nothing to do")
+            z_line = next((c.line for c in commands if c.verb == "Z"), None)
+            if z_line is not None and not board.has_z:
+                return Outcome(False, f"line {z_line}: a Z move, and the board reports no Z axis "
+                                      f"(firmware built without ZAXIS=1)")
             rapid = int(min(MAX_RATE, self.config.rapid_feed / 60.0 * self.config.motor_steps_per_mm()))
             record = JobRecord(uuid.uuid4().hex, name, [c.text for c in commands], [c.line for c in commands],
-                               start, bool(board.pen_down), rapid)
+                               start, bool(board.pen_down), rapid, board.z_steps if board.has_z else None)
             return self._stream(record, goal_handle)
 
     def _resume(self, job_id: str, board: BoardState, goal_handle) -> Outcome:
@@ -234,9 +246,11 @@ class GCodeStreamer(Node):
             completed = max(completed, int(result.completed))
         elif status != GoalStatus.STATUS_UNKNOWN:
             return Outcome(False, f"job {job_id} is still running on the bridge")
-        commands, lines = resume_commands(record, completed, (board.x_steps, board.y_steps), bool(board.pen_down))
+        z_at = board.z_steps if board.has_z else None
+        commands, lines = resume_commands(record, completed, (board.x_steps, board.y_steps), bool(board.pen_down),
+                                          z_at)
         new = JobRecord(uuid.uuid4().hex, f"{record.name} (resumed)", commands, lines,
-                        (board.x_steps, board.y_steps), bool(board.pen_down), record.rapid_rate)
+                        (board.x_steps, board.y_steps), bool(board.pen_down), record.rapid_rate, z_at)
         self.journal.update(job_id, Progress(completed, INTERRUPTED, progress.message, new.job_id))
         line = record.lines[completed] if completed < len(record.lines) else 0
         self.get_logger().info(f"resuming {record.name} at command {completed + 1} of "

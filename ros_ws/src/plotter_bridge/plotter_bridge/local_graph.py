@@ -22,7 +22,7 @@ from plotter_interfaces.action import RunProgram
 
 from .faults import FaultSpec
 from .gcode_streamer_node import GCodeStreamer
-from .kinematics import Machine
+from .kinematics import DEFAULT_Z_STEPS_PER_MM, Machine
 from .mock_board import MockBoard, MockBoardConfig
 from .serial_bridge_node import SerialBridge
 
@@ -42,6 +42,9 @@ class GraphOptions:
     journal_dir: str = ""          # streamer's job journal ('' = the default)
     machine: str = "cartesian"     # or "hanging" (seed 003; the geometry's defaults)
     area: Optional[Tuple[float, float, float, float]] = None   # work area x_min, x_max, y_min, y_max (mm)
+    z_axis: bool = False           # G-code Z moves a third axis (firmware ZAXIS=1), not the pen
+    z_steps_per_mm: float = DEFAULT_Z_STEPS_PER_MM
+    z_range: Optional[Tuple[float, float]] = None   # travel of Z, z_min, z_max (mm)
 
 
 @dataclass
@@ -51,6 +54,7 @@ class ProgramResult:
     x_mm: float
     y_mm: float
     job_id: str = ""
+    z_mm: Optional[float] = None   # the Z axis at the end, when the board has one
 
 
 class LocalGraph:
@@ -61,18 +65,23 @@ class LocalGraph:
         rclpy.init(context=self._context, args=[])
         port = options.port
         self._tmp: Optional[tempfile.TemporaryDirectory] = None
+        z_mode = "axis" if options.z_axis else "pen"
         if options.mock:
             # A fixed path (symlink) to the pty, so that an unplugged mock board comes back at it.
             self._tmp = tempfile.TemporaryDirectory(prefix="plotter-mock-")
             port = str(Path(self._tmp.name) / "board")
+            machine = Machine(options.machine, options.steps_per_mm, z_mode=z_mode,
+                              z_steps_per_mm=options.z_steps_per_mm)
             self.board = MockBoard(MockBoardConfig(baud=options.baud, trace=options.trace, link=port,
                                                    seq_log=options.seq_log, faults=options.faults,
-                                                   machine=Machine(options.machine, options.steps_per_mm)))
+                                                   machine=machine))
             self.board.start()
         if not port:
             raise ValueError("no port given (use --port PORT or --mock)")
         machine = [Parameter("steps_per_mm", value=float(options.steps_per_mm)),
-                   Parameter("machine", value=options.machine)]
+                   Parameter("machine", value=options.machine),
+                   Parameter("z_mode", value=z_mode),
+                   Parameter("z_steps_per_mm", value=float(options.z_steps_per_mm))]
         self.bridge = SerialBridge(namespace=options.namespace, context=self._context,
                                    parameter_overrides=[Parameter("port", value=port),
                                                         Parameter("baud", value=int(options.baud)), *machine])
@@ -80,6 +89,9 @@ class LocalGraph:
         if options.area is not None:
             streamer_params += [Parameter(name, value=float(v)) for name, v in
                                 zip(("x_min", "x_max", "y_min", "y_max"), options.area)]
+        if options.z_range is not None:
+            streamer_params += [Parameter(name, value=float(v)) for name, v in
+                                zip(("z_min", "z_max"), options.z_range)]
         if options.journal_dir:
             streamer_params.append(Parameter("journal_dir", value=options.journal_dir))
         self.streamer = GCodeStreamer(namespace=options.namespace, context=self._context,
@@ -123,7 +135,7 @@ class LocalGraph:
             finished.wait(10.0)
             raise
         r = res.result().result
-        return ProgramResult(r.success, r.message, r.x_mm, r.y_mm, r.job_id)
+        return ProgramResult(r.success, r.message, r.x_mm, r.y_mm, r.job_id, self.bridge.z_mm())
 
     def close(self) -> None:
         self._client.destroy()

@@ -6,13 +6,14 @@ import math
 
 from rcl_interfaces.msg import ParameterDescriptor
 
-from .kinematics import MACHINES, HangingGeometry, Machine
+from .kinematics import DEFAULT_Z_STEPS_PER_MM, MACHINES, HangingGeometry, Machine
 
 _DEFAULT = HangingGeometry()
 
 
 def declare_machine(node) -> Machine:
-    """Declare `machine`, `steps_per_mm` and the hanging geometry; return the Machine."""
+    """Declare `machine`, `steps_per_mm`, the hanging geometry and the Z
+    axis (`z_mode`, `z_steps_per_mm`); return the Machine."""
     d = ParameterDescriptor
     node.declare_parameter("machine", "cartesian", d(description=f"kinematics: {' | '.join(MACHINES)}"))
     node.declare_parameter("steps_per_mm", 80.0, d(description="cartesian: motor steps per millimetre, both axes"))
@@ -24,6 +25,9 @@ def declare_machine(node) -> Machine:
                            d(description="hanging: string wound per spool turn, mm"))
     node.declare_parameter("pulses_per_rev", _DEFAULT.pulses_per_rev,
                            d(description="hanging: motor pulses per spool turn"))
+    node.declare_parameter("z_mode", "pen", d(description="what G-code Z drives: pen (up/down) | axis "
+                                                       "(a third axis, firmware built with ZAXIS=1)"))
+    node.declare_parameter("z_steps_per_mm", DEFAULT_Z_STEPS_PER_MM, d(description="z_mode axis: motor steps per millimetre of Z"))
     g = lambda name: node.get_parameter(name).value  # noqa: E731
     left, right = [float(v) for v in g("pulley_left")], [float(v) for v in g("pulley_right")]
     numbers = [float(g("steps_per_mm")), float(g("spool_circumference")), float(g("pulses_per_rev")), *left, *right]
@@ -32,4 +36,5 @@ def declare_machine(node) -> Machine:
         raise ValueError(f"bad machine parameters: steps_per_mm, spool, pulses, pulleys = {numbers}")
     return Machine(str(g("machine")), float(g("steps_per_mm")),
                    HangingGeometry((left[0], left[1]), (right[0], right[1]),
-                                   float(g("spool_circumference")), float(g("pulses_per_rev"))))
+                                   float(g("spool_circumference")), float(g("pulses_per_rev"))),
+                   str(g("z_mode")), float(g("z_steps_per_mm")))

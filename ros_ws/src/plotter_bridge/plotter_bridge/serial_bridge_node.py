@@ -1,6 +1,7 @@
 """serial_bridge: owns the serial port and speaks the firmware protocol.
 
-Publishes `position` (geometry_msgs/PointStamped, mm, frame `plotter`) and
+Publishes `position` (geometry_msgs/PointStamped, mm, frame `plotter`; z is
+the Z axis of a board built with one, else 0) and
 `state` (plotter_interfaces/BoardState, reliable, transient local) from the
 board's status reports; offers `estop`, `hold`, `resume`, `reset` and
 `set_origin` (std_srvs/Trigger); serves `stream_commands`
@@ -134,11 +135,15 @@ class SerialBridge(Node):
         p.header.stamp = stamp
         p.header.frame_id = self.frame_id
         p.point.x, p.point.y = self.machine.pen_mm((st.x, st.y))
+        if st.z is not None:
+            p.point.z = st.z / self.machine.z_steps_per_mm
         self.pub_position.publish(p)
         s = self._state_msg(STATE_CODES.get(st.state, BoardState.IDLE))
         s.header.stamp = stamp
         s.x_steps, s.y_steps = st.x, st.y
         s.x_mm, s.y_mm = p.point.x, p.point.y
+        if st.z is not None:
+            s.has_z, s.z_steps, s.z_mm = True, st.z, p.point.z
         s.pen_down = st.pen_down
         s.queue_free = st.queue_free
         self.pub_state.publish(s)
@@ -153,6 +158,8 @@ class SerialBridge(Node):
             if st is not None:         # the last position the board reported
                 s.x_steps, s.y_steps = st.x, st.y
                 s.x_mm, s.y_mm = self.machine.pen_mm((st.x, st.y))
+                if st.z is not None:
+                    s.has_z, s.z_steps, s.z_mm = True, st.z, st.z / self.machine.z_steps_per_mm
             self.pub_state.publish(s)
 
     def _state_msg(self, state: int) -> BoardState:
@@ -235,6 +242,11 @@ class SerialBridge(Node):
         """Telemetry draws in the trace's units: the pen's mm times steps_per_mm."""
         x, y = self.machine.pen_mm(motor)
         return x * self.steps_per_mm, y * self.steps_per_mm
+
+    def z_mm(self) -> Optional[float]:
+        """The Z axis as the board last reported it; None without one."""
+        st = self.session.link.status if self.session.link else None
+        return None if st is None or st.z is None else st.z / self.machine.z_steps_per_mm
 
     def _position_mm(self) -> tuple:
         st = self.session.link.status if self.session.link else None
