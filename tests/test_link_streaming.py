@@ -9,8 +9,8 @@ import pytest
 from firmware_build import host_library
 from plotter_bridge.firmware_core import FirmwareCore
 from plotter_bridge.link import BoardLink
-from plotter_bridge.protocol import (Banner, Err, Ok, Resend, Status, checksum, fletcher, machine_line,
-                                     parse_reply)
+from plotter_bridge.protocol import (Banner, Err, Ok, Resend, Status, checksum, compact_command, fletcher,
+                                     machine_line, parse_reply)
 from sim_port import SimPort
 
 
@@ -43,8 +43,43 @@ def connect(port, **kw):
 
 
 def test_machine_line_format_and_checksum():
-    assert machine_line(17, "L 400 -300") == b"N17 L 400 -300 *%d\n" % checksum("N17 L 400 -300 ")
-    assert machine_line(65536 + 3, "P 1").startswith(b"N3 P 1 *")
+    assert machine_line(17, "L 400 -300") == b"N17L400 -300*%d\n" % checksum("N17L400 -300")
+    assert machine_line(65536 + 3, "P 1").startswith(b"N3P1*")
+
+
+def test_compact_command_drops_only_what_the_firmware_defaults():
+    assert compact_command("L 400 -300 2000 0") == "L400 -300 2000"
+    assert compact_command("L 400 -300 0 0") == "L400 -300"
+    assert compact_command("L 0 0 2000 850") == "L0 0 2000 850"
+    assert compact_command("A 10 0 5 0 3000 0") == "A10 0 5 0 3000"
+    assert compact_command("C 0 0 -5 0 0 0") == "C0 0 -5 0"
+    assert compact_command("P 0") == "P0"          # not a motion command: its argument stays
+    assert compact_command("D 0") == "D0"
+    assert compact_command("H") == "H"
+    assert compact_command("") == ""
+
+
+@pytest.mark.parametrize("command", [
+    "L 400 -300 2000 0", "L -7 0 15 0", "L 0 -1 12850 12850", "A 20 0 10 0 3000 0",
+    "C -20 0 -10 0 0 0", "P 1", "D 5", "H", "L 10 0 0 0", "$",
+])
+def test_compact_machine_lines_do_what_the_typed_line_does(command):
+    """The firmware core answers a compacted machine line exactly as it
+    answers the command typed in full."""
+    replies = []
+    for line in (command.encode() + b"\n", machine_line(0, command)):
+        c = FirmwareCore(host_library())
+        try:
+            c.transmitted()                             # the banner
+            c.receive(line)
+            c.poll(4)
+            reply = c.transmitted().decode()
+            steps = c.run_steps()
+            replies.append((reply.replace(" N0", "").split(" *")[0], c.position, c.pen_down, len(steps)))
+        finally:
+            c.close()
+    assert replies[0] == replies[1]
+    assert replies[0][0].startswith(("ok", "$")), replies[0]
 
 
 def signed(text):
@@ -131,3 +166,4 @@ def test_corrupted_bytes_both_ways_lose_nothing_and_repeat_nothing(core, rate):
     assert core.position == (x, y)
     assert core.seq_log() == moving, "every command executed exactly once, in order"
     assert link.stats.retransmissions > 0
+

@@ -25,6 +25,7 @@ from dataclasses import dataclass
 from typing import List, Sequence
 
 from .commands import BoardCommand, MIN_RATE
+from .protocol import compact_command
 
 
 @dataclass(frozen=True)
@@ -33,14 +34,15 @@ class PlannerLimits:
     junction_deviation: float  # steps
 
 
-WIRE_OVERHEAD = 14   # bytes around a command on the wire: "N1234 " and " *12345\n" (protocol.machine_line)
+WIRE_OVERHEAD = 12   # bytes around a command on the wire: "N1234" and "*12345\n" (protocol.machine_line)
 LINK_SHARE = 0.93    # part of its byte rate a streaming link keeps busy (benchmarks/RESULTS.md)
 
 
 def wire_bytes(cmd: BoardCommand) -> int:
     """Bytes a motion command takes on the wire, its exit rate (not planned
     yet) counted with as many digits as its cruise rate."""
-    return len(cmd.text) - len(str(cmd.exit_rate)) + len(str(cmd.rate)) + WIRE_OVERHEAD
+    r = str(cmd.rate)
+    return len(compact_command(" ".join([cmd.verb, *map(str, cmd.args), r, r]))) + WIRE_OVERHEAD
 
 
 def cap_for_link(commands: Sequence[BoardCommand], link_bytes_per_s: float,

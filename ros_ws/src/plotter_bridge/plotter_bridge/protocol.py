@@ -43,9 +43,35 @@ def checksum(text: str) -> int:
     return fletcher(text.encode("ascii", "replace"))
 
 
+# Coordinates before the optional feed and exit of each motion command.
+MOTION_COORDS = {"L": 2, "C": 4, "A": 4, "Z": 1}
+
+
+def compact_command(command: str) -> str:
+    """The shortest text the firmware reads as the same command: trailing
+    feed and exit of 0 left out (PROTOCOL.md: 0 and omitted mean the same),
+    no separator between the command letter and its first argument (its
+    parser skips separators there but needs none; between arguments it
+    does).  Link bytes bound the drawing speed of short segments, and the
+    shorter a line, the more lines fit in the board's 64-byte receive ring
+    at once."""
+    parts = command.split()
+    if not parts:
+        return ""
+    verb, args = parts[0], parts[1:]
+    coords = MOTION_COORDS.get(verb)
+    if coords is not None:
+        while len(args) > coords and args[-1] == "0":
+            args.pop()
+    return verb + " ".join(args)
+
+
 def machine_line(seq: int, command: str) -> bytes:
-    """`N<seq> <command> *<checksum>\\n` for a command like `L 10 -4`."""
-    body = f"N{seq % SEQ_MOD} {command} "
+    """`N<seq><command>*<checksum>\\n` for a command like `L 10 -4`, the
+    command compacted (`N17L10 -4*15589`).  The firmware skips spaces after
+    the number and ends the last argument at the `*`, so neither needs a
+    separator; the checksum covers every byte before the `*`."""
+    body = f"N{seq % SEQ_MOD}{compact_command(command)}"
     return f"{body}*{checksum(body)}\n".encode("ascii")
 
 
