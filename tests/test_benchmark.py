@@ -100,10 +100,27 @@ def test_sim_board_sends_replies_at_the_baud_rate(core):
 def test_link_cap_makes_commands_last_their_time_on_the_wire():
     cmds = [BoardCommand("L", (8, 0), 1, 8, 8000, dir_in=EAST, dir_out=EAST) for _ in range(5)]
     cmds.append(BoardCommand("L", (4000, 0), 1, 4000, 8000, dir_in=EAST, dir_out=EAST))
-    cap_for_link(cmds, 11520.0, share=0.9)
-    for c in cmds:
-        assert c.steps / c.rate >= wire_bytes(c) / (11520.0 * 0.9) - 1e-9
+    cap_for_link(cmds, 11520.0, share=0.9, first_seq=1234)
+    for k, c in enumerate(cmds):
+        assert c.steps / c.rate >= wire_bytes(c, seq=1234 + k) / (11520.0 * 0.9) - 1e-9
     assert cmds[0].rate < 8000 and cmds[-1].rate == 8000     # long commands keep their feed
     c = cmds[0]
     c.exit_rate = c.rate
-    assert wire_bytes(c) == len(machine_line(1234, c.text))
+    sent = machine_line(1234, c.text)
+    assert wire_bytes(c, seq=1234) == len(sent) + 5 - len(sent.split(b"*")[1].strip())
+    assert wire_bytes(c) == wire_bytes(c, seq=12345)          # number unknown: five digits
+
+
+def test_link_cap_gives_neighbouring_chords_one_rate():
+    """Chords of a curve one step longer or shorter than their neighbours get
+    the rate of the stretch they end, not one each: the board's ramp could not
+    follow rates alternating by a tenth, and the planner would flatten them to
+    the lowest.  Over any stretch the board takes as long as the link."""
+    steps = [10, 11] * 30
+    cmds = [BoardCommand("L", (s, 0), 1, s, 10000, dir_in=EAST, dir_out=EAST) for s in steps]
+    cap_for_link(cmds, 11520.0, share=0.95, first_seq=100)
+    rates = [c.rate for c in cmds[6:]]
+    assert max(rates) - min(rates) <= 0.01 * max(rates)
+    board = sum(c.steps / c.rate for c in cmds[6:])
+    link = sum(wire_bytes(c, seq=106 + k) for k, c in enumerate(cmds[6:])) / (11520.0 * 0.95)
+    assert board == pytest.approx(link, rel=0.02)

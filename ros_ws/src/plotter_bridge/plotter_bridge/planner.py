@@ -22,10 +22,10 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
-from typing import List, Sequence
+from typing import List, Optional, Sequence, Tuple
 
 from .commands import BoardCommand, MIN_RATE
-from .protocol import compact_command
+from .protocol import SEQ_MOD, compact_command
 
 
 @dataclass(frozen=True)
@@ -34,31 +34,84 @@ class PlannerLimits:
     junction_deviation: float  # steps
 
 
-WIRE_OVERHEAD = 12   # bytes around a command on the wire: "N1234" and "*12345\n" (protocol.machine_line)
-LINK_SHARE = 0.93    # part of its byte rate a streaming link keeps busy (benchmarks/RESULTS.md)
+LINK_SHARE = 0.97    # part of its byte rate a streaming link keeps busy (benchmarks/RESULTS.md)
+BOARD_QUEUE = 6      # commands the board holds (firmware QUEUE_SIZE, $I field Q)
+SUM_DIGITS = 5       # a checksum below 10000 is the exception (1 line in 6)
 
 
-def wire_bytes(cmd: BoardCommand) -> int:
-    """Bytes a motion command takes on the wire, its exit rate (not planned
-    yet) counted with as many digits as its cruise rate."""
-    r = str(cmd.rate)
-    return len(compact_command(" ".join([cmd.verb, *map(str, cmd.args), r, r]))) + WIRE_OVERHEAD
+def wire_bytes(cmd: BoardCommand, rate: int = 0, seq: Optional[int] = None) -> int:
+    """Bytes a motion command takes on the wire (protocol.machine_line) at
+    cruise `rate` (default: its own), its exit rate (not planned yet)
+    counted with as many digits; sent as number `seq`, or with a 5-digit
+    number (most of the 16-bit range) when that is not known."""
+    r = str(rate or cmd.rate)
+    number = len(str(seq % SEQ_MOD)) if seq is not None else 5
+    text = compact_command(" ".join([cmd.verb, *map(str, cmd.args), r, r]))
+    return 1 + number + len(text) + 1 + SUM_DIGITS + 1       # N<seq><text>*<sum>\n
+
+
+def _trailing_rates(steps: Sequence[int], seconds: Sequence[float], window: int) -> List[float]:
+    """Per command, the mean rate (steps / seconds) of the stretch of up to
+    `window` commands that ends with it."""
+    out = []
+    for k in range(len(steps)):
+        a = max(0, k - window + 1)
+        out.append(sum(steps[a:k + 1]) / sum(seconds[a:k + 1]))
+    return out
 
 
 def cap_for_link(commands: Sequence[BoardCommand], link_bytes_per_s: float,
-                 share: float = LINK_SHARE) -> List[BoardCommand]:
-    """Lower (in place) the cruise rate of every motion command so that it
-    lasts at least as long as the link needs to deliver a command like it
-    when `share` of the link's byte rate carries commands; returns the list.
-    The board then finishes commands no faster than they arrive instead of
-    running dry and braking to a stop at the end of each."""
+                 share: float = LINK_SHARE, window: int = BOARD_QUEUE,
+                 first_seq: Optional[int] = None) -> List[BoardCommand]:
+    """Lower (in place) the cruise rate of motion commands shorter in time
+    than the link needs to deliver them, so that the board takes about as
+    long to draw them as `share` of the link's byte rate takes to send
+    them; returns the list.  The board then finishes commands no faster
+    than they arrive instead of running dry and braking to a stop at the
+    end of each.  `first_seq`: the sequence number the first command goes
+    out with, if known (its digits count).
+
+    Along a run of such commands the cap is the mean rate of the `window`
+    commands up to each (the board's queue evens out the rest): neighbouring
+    chords of a curve differ by a step or two, and capping each to its own
+    length would make their rates alternate by 10 % or more, which the
+    board's ramp cannot follow and the planner's exits would flatten to the
+    lowest.  Only earlier commands count, because a command the board runs
+    faster than the link delivers it must be paid for by time the queue has
+    already gained.  A lower rate may take fewer digits on the wire, so the
+    bytes are counted again at the capped rates."""
     if link_bytes_per_s <= 0:
         return list(commands)
-    for cmd in commands:
-        if cmd.is_motion and cmd.steps > 0:
-            seconds = wire_bytes(cmd) / (link_bytes_per_s * share)
-            cmd.rate = max(MIN_RATE, min(cmd.rate, int(cmd.steps / seconds)))
+    bytes_per_s = link_bytes_per_s * share
+    run: List[Tuple[int, BoardCommand]] = []
+
+    def seq(k: int) -> Optional[int]:
+        return None if first_seq is None else first_seq + k
+
+    def flush() -> None:
+        steps = [c.steps for _, c in run]
+        rates = [c.rate for _, c in run]
+        for _ in range(2):
+            seconds = [wire_bytes(c, r, seq(k)) / bytes_per_s for (k, c), r in zip(run, rates)]
+            caps = _trailing_rates(steps, seconds, window)
+            rates = [max(MIN_RATE, min(c.rate, int(cap))) for (_, c), cap in zip(run, caps)]
+        for (_, c), r in zip(run, rates):
+            c.rate = r
+        run.clear()
+
+    for k, cmd in enumerate(commands):
+        if cmd.is_motion and cmd.steps > 0 and cmd.steps / cmd.rate < wire_bytes(cmd, 0, seq(k)) / bytes_per_s:
+            run.append((k, cmd))
+        else:
+            flush()
+    flush()
     return list(commands)
+
+
+def link_baud(parameter: int, bridge_baud: int) -> int:
+    """The baud rate cap_for_link plans for: `parameter` if positive, none
+    if 0, the serial bridge's if negative."""
+    return parameter if parameter >= 0 else max(0, bridge_baud)
 
 
 def junction_rate(a: BoardCommand, b: BoardCommand, limits: PlannerLimits) -> float:

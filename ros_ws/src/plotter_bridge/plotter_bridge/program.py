@@ -31,6 +31,7 @@ class StreamerConfig:
     hanging: HangingGeometry = HangingGeometry()
     tolerance: float = 0.1             # hanging: largest pen deviation from the path, mm
     link_baud: int = 0                 # > 0: slow commands down to what a link of this baud can feed
+    link_seq: int = -1                 # link_baud: the first command's sequence number on the wire (-1: unknown)
     z_mode: str = "pen"                # G-code Z: the pen, or "axis": a third axis (firmware ZAXIS=1)
     z_steps_per_mm: float = DEFAULT_Z_STEPS_PER_MM   # z_mode axis: steps per mm of Z
 
@@ -69,5 +70,5 @@ def compile_program(text: str, config: StreamerConfig,
         commands = to_commands(to_steps(items, config.steps_per_mm),
                                cartesian_motion(config.steps_per_mm), config.rapid_feed, z_motion)
     if config.link_baud > 0:
-        cap_for_link(commands, config.link_baud / 10.0)
+        cap_for_link(commands, config.link_baud / 10.0, first_seq=None if config.link_seq < 0 else config.link_seq)
     return plan(commands, config.limits()) if config.lookahead else commands
