@@ -61,7 +61,7 @@ class SimSession:
         self._acks: List[float] = []
         self.link = BoardLink(self.board.port, clock=self.board.clock,
                               ack_timeout=BRIDGE_ACK_TIMEOUT,
-                              status_interval=1.0 / status_hz,
+                              status_interval=1.0 / status_hz, baud=baud,
                               on_ack=self._on_ack, on_status=self._on_status)
         self.link.request_status()
         if not self.board.run(lambda: self.link.status is not None, self.link.poll, limit=self.board.now + 2):

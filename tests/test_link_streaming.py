@@ -8,7 +8,7 @@ import pytest
 
 from firmware_build import host_library
 from plotter_bridge.firmware_core import FirmwareCore
-from plotter_bridge.link import BoardLink
+from plotter_bridge.link import STATUS_SHARE, WAIT_SHARE, BoardLink
 from plotter_bridge.protocol import (Banner, Err, Ok, Resend, Status, checksum, compact_command, fletcher,
                                      machine_line, parse_reply)
 from sim_port import SimPort
@@ -167,3 +167,33 @@ def test_corrupted_bytes_both_ways_lose_nothing_and_repeat_nothing(core, rate):
     assert core.seq_log() == moving, "every command executed exactly once, in order"
     assert link.stats.retransmissions > 0
 
+
+class CountingPort(SimPort):
+    """Counts the status requests the host sends."""
+    polls = 0
+
+    def write(self, data: bytes) -> int:
+        self.polls += data.count(b"?")
+        return super().write(data)
+
+
+@pytest.mark.parametrize("baud", [9600, 115200])
+def test_status_polls_take_a_share_of_the_link(core, baud):
+    """While lines wait to be sent, status reports may take STATUS_SHARE of
+    the reply direction's bytes; otherwise up to WAIT_SHARE, however often
+    status_interval asks."""
+    port = CountingPort(core, baud=baud)
+    link = connect(port, status_interval=0.001, baud=baud)
+
+    def budget(share, seconds):
+        return share * baud / 10 * seconds / 40 + 2      # a report takes at least 40 bytes
+
+    port.polls, t0 = 0, port.now
+    run_until(port, link, lambda: False, limit=port.now + 5.0)          # nothing to send
+    assert 0 < port.polls <= budget(WAIT_SHARE, port.now - t0)
+
+    for k in range(4000):                                                # one step each: faster than the link
+        link.submit(f"L {1 - 2 * (k % 2)} 0 12850 12850")
+    port.polls, t0 = 0, port.now
+    assert run_until(port, link, lambda: link.outstanding < 1000, limit=port.now + 600)
+    assert 0 < port.polls <= budget(STATUS_SHARE, port.now - t0)

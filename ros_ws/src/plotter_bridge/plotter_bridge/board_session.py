@@ -41,6 +41,7 @@ DISCONNECTED, CONNECTING, CONNECTED = "disconnected", "connecting", "connected"
 class SessionConfig:
     ack_timeout: float = 0.5          # seconds before unacknowledged lines are sent again
     status_interval: float = 0.04     # '?' polling period
+    baud: int = 0                     # the line's baud rate: polling is held to a share of it (link.py)
     reconnect_timeout: float = 30.0   # a job waits this long for a vanished port
     backoff_min: float = 0.1          # first wait before opening the port again
     backoff_max: float = 2.0
@@ -176,7 +177,8 @@ class BoardSession:
         self.connection = CONNECTING
         if self.link is None:
             self.link = BoardLink(port, ack_timeout=self.config.ack_timeout,
-                                  status_interval=self.config.status_interval, clock=self.clock,
+                                  status_interval=self.config.status_interval,
+                                  baud=self.config.baud, clock=self.clock,
                                   on_status=self._on_status, on_error=self._on_error,
                                   on_banner=self._on_banner, on_message=self._on_message,
                                   on_ack=self._on_ack, on_mismatch=self._on_mismatch)

@@ -15,6 +15,23 @@ reported through `on_mismatch` instead of having lines acknowledged or sent
 to it.  After the port comes back, `attach()` holds every line until a
 status report shows where the board is, then goes on from its `N`.
 
+Lines are sent as soon as the board's receive ring has room for them: the
+bytes of every line sent and not yet acknowledged count against its 64
+bytes, as grbl's character-counting streaming does, so two or three lines
+are on their way while the board answers the one before.  The board only
+frees a queue slot silently, so while its queue is full the link asks for
+status reports to learn when to go on.
+
+Status reports share the board-to-host direction with the acknowledgements.
+A report of about 48 bytes delays the acknowledgement behind it, and with
+only two lines fitting in the ring the link then idles: at 115200 baud each
+report costs the link about 4 ms of sending.  With `baud` given, polling is
+held, whatever `status_interval` asks, to a share of that direction's bytes:
+`status_share` (STATUS_SHARE, 5 %: about 12 reports a second at 115200 baud,
+1 at 9600) while lines wait to be sent and the board has room for them, and
+`wait_share` (WAIT_SHARE, 30 %: up to 72 and 6) while its queue is full or
+there is nothing to send, when acknowledgements are few.
+
 The caller drives it: `poll()` reads what arrived, reacts, and sends what the
 window allows.  It owns no thread and knows nothing of ROS.
 """
@@ -57,12 +74,28 @@ class LinkStats:
     mismatches: int = 0
 
 
+STATUS_SHARE = 0.05      # of the reply direction's bytes, for status polls while lines wait to go
+WAIT_SHARE = 0.30        # ... while the board's queue is full or nothing waits
+STATUS_BYTES = 50        # a status report on the wire, until one is seen
+
+
+def status_period(interval: float, baud: int, share: float, report_bytes: int) -> float:
+    """Seconds between status polls: `interval`, or longer if the reports
+    would take more than `share` of the link's bytes (baud 0: unknown)."""
+    if baud <= 0 or share <= 0:
+        return interval
+    return max(interval, report_bytes * 10.0 / (baud * share))
+
+
 @dataclass
 class BoardLink:
     port: Port
     rx_buffer: int = 64              # the board's receive ring (PROTOCOL: $I field B)
     ack_timeout: float = 0.5         # seconds before the window is sent again
     status_interval: float = 0.05    # '?' polling period while the link is up
+    baud: int = 0                    # the line's baud rate, to hold polling to a share of it; 0: unknown
+    status_share: float = STATUS_SHARE
+    wait_share: float = WAIT_SHARE
     clock: Callable[[], float] = time.monotonic
     on_status: Optional[Callable[[Status], None]] = None
     on_ack: Optional[Callable[[Command], None]] = None
@@ -81,6 +114,7 @@ class BoardLink:
         self._inbuf = b""
         self._last_status_req = -1e9
         self._status_pending = False
+        self._status_bytes = STATUS_BYTES
         self.status: Optional[Status] = None
         self.acked = -1                           # highest host seq acknowledged
         self.last_sent = -1                       # highest host seq put on the wire
@@ -115,6 +149,11 @@ class BoardLink:
         self._next_seq += 1
         self._window.append(cmd)
         return cmd
+
+    @property
+    def next_seq(self) -> int:
+        """The wire number (0..65535) the next submitted command gets."""
+        return self._next_seq % SEQ_MOD
 
     @property
     def outstanding(self) -> int:
@@ -164,14 +203,19 @@ class BoardLink:
             self._inbuf += data
             *lines, self._inbuf = self._inbuf.split(b"\n")
             for raw in lines:
-                self._handle(raw.decode("ascii", "replace").strip("\r"))
+                self._handle(raw.decode("ascii", "replace").strip("\r"), len(raw) + 1)
             if len(self._inbuf) > 512:      # a line that never ends: noise
                 self._inbuf = b""
         now = self.clock()
         self._check_timeout(now)
         self._transmit(now)
-        waiting = self._send_pos < len(self._window) and self._credit() <= 0
-        interval = self.status_interval / 4 if waiting else self.status_interval
+        sending = self._send_pos < len(self._window)
+        if sending and self._credit() <= 0:      # the queue is full: only a report says when it is not
+            interval = status_period(self.status_interval / 4, self.baud, self.wait_share, self._status_bytes)
+        elif sending:
+            interval = status_period(self.status_interval, self.baud, self.status_share, self._status_bytes)
+        else:
+            interval = status_period(self.status_interval, self.baud, self.wait_share, self._status_bytes)
         if now - self._last_status_req >= (interval if not self._status_pending else max(interval, 0.3)):
             self.request_status()
 
@@ -224,7 +268,7 @@ class BoardLink:
             if self.on_ack:
                 self.on_ack(cmd)
 
-    def _handle(self, line: str) -> None:
+    def _handle(self, line: str, size: int) -> None:
         reply = parse_reply(line)
         if reply is None:
             if line:
@@ -261,6 +305,7 @@ class BoardLink:
                     self.on_error(cmd, reply)
         elif isinstance(reply, Status):
             self._status_pending = False
+            self._status_bytes = size
             if not self.consistent(reply):
                 self.stats.mismatches += 1
                 if self.on_mismatch:

@@ -77,7 +77,9 @@ class SerialBridge(Node):
         d = ParameterDescriptor
         self.declare_parameter("port", "/dev/ttyUSB0", d(description="serial port or any pyserial URL (socket://host:port, a pty path)"))
         self.declare_parameter("baud", 115200, d(description="baud rate"))
-        self.declare_parameter("status_hz", 25.0, d(description="status polls per second (position topic rate)"))
+        self.declare_parameter("status_hz", 25.0, d(description="status polls per second (position topic rate); "
+                                                         "at most what 5 % of the link's bytes carry while "
+                                                         "commands wait to be sent (link.py STATUS_SHARE)"))
         self.declare_parameter("ack_timeout", 0.5, d(description="seconds without acknowledgement before resending"))
         self.declare_parameter("reconnect_timeout", 30.0, d(description="seconds a job waits for a vanished port before it is aborted"))
         self.declare_parameter("frame_id", "plotter", d(description="frame of the position topic"))
@@ -87,6 +89,7 @@ class SerialBridge(Node):
         hz = float(self.get_parameter("status_hz").value)
         config = SessionConfig(ack_timeout=float(self.get_parameter("ack_timeout").value),
                                status_interval=1.0 / min(max(hz, 1.0), 200.0),
+                               baud=int(self.get_parameter("baud").value),
                                reconnect_timeout=float(self.get_parameter("reconnect_timeout").value))
 
         latched = QoSProfile(depth=1, reliability=ReliabilityPolicy.RELIABLE,
