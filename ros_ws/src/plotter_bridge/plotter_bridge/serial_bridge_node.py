@@ -17,6 +17,7 @@ with the reason (see board_session.py).
 from __future__ import annotations
 
 import math
+import select
 import threading
 import time
 from typing import List, Optional
@@ -69,6 +70,24 @@ def validate_goal(commands: List[str], lines: List[int], lease: float) -> Option
     if why is None and not (math.isfinite(lease) and 0.0 <= lease <= MAX_LEASE_S):
         why = f"lease {lease} outside 0..{MAX_LEASE_S:g} s"
     return why
+
+
+def wait_readable(port, timeout: float) -> None:
+    """Until the port has bytes to read, at most `timeout` seconds: a reply
+    is acted on when it arrives, not at the next tick of a timer (at 115200
+    baud a line takes 2.3 ms on the wire, and the next one may only go out
+    once the board has acknowledged the one before it)."""
+    try:
+        fd = port.fileno()
+    except Exception:  # a port without a file descriptor (some pyserial URLs)
+        fd = None
+    if fd is None:
+        time.sleep(timeout)
+        return
+    try:
+        select.select([fd], [], [], timeout)
+    except (OSError, ValueError):
+        time.sleep(timeout)
 
 
 class SerialBridge(Node):
@@ -126,7 +145,11 @@ class SerialBridge(Node):
     def _io_loop(self) -> None:
         while self._running:
             self.session.pump()
-            time.sleep(0.001 if self.session.port is not None else 0.02)
+            port = self.session.port
+            if port is None:
+                time.sleep(0.02)
+            else:
+                wait_readable(port, 0.001)
 
     def _log(self, text: str) -> None:
         self.get_logger().info(text)
