@@ -30,7 +30,7 @@ import queue
 import threading
 import time
 import uuid
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from typing import Optional, Tuple
 
 from rclpy.action import ActionClient, ActionServer, CancelResponse, GoalResponse
@@ -54,6 +54,7 @@ from .gcode_types import GCodeError
 from .journal import (DONE, INTERRUPTED, RUNNING, Journal, JobRecord, Progress, default_journal_dir,
                       resume_commands)
 from .machine_params import declare_machine
+from .planner import link_baud
 from .program import MAX_PROGRAM_BYTES, StreamerConfig, compile_program
 
 DEFAULT_NAMESPACE = "/plotter"   # `-r __ns:=/plotter2` runs a second plotter beside it
@@ -97,6 +98,9 @@ class GCodeStreamer(Node):
         self.declare_parameter("acceleration", 1000.0, d(description="maximum acceleration, mm/s^2 (within the firmware's ramp)"))
         self.declare_parameter("junction_deviation", 0.05, d(description="corner rule of the look-ahead planner, mm"))
         self.declare_parameter("lookahead", True, d(description="plan speeds across commands; false stops at every command"))
+        self.declare_parameter("link_baud", -1, d(description="slow commands shorter than their time on the serial link "
+                                                          "down to its pace (planner.cap_for_link) at this baud rate; "
+                                                          "-1: serial_bridge's, 0: off"))
         self.declare_parameter("tolerance", 0.1, d(description="hanging machine: largest pen deviation from the programmed path, mm"))
         self.machine = declare_machine(self)
         self.declare_parameter("journal_dir", "", d(description="directory of the job journal ('' = $ROS_HOME/plotter_journal)"))
@@ -216,7 +220,9 @@ class GCodeStreamer(Node):
             if resume:
                 return self._resume(resume, board, goal_handle)
             try:
-                commands = compile_program(text, self.config, start, board.z_steps)
+                config = replace(self.config, link_seq=board.next_seq,
+                                 link_baud=link_baud(int(self.get_parameter("link_baud").value), board.link_baud))
+                commands = compile_program(text, config, start, board.z_steps)
             except GCodeError as exc:
                 return Outcome(False, str(exc))
             if not commands:

@@ -198,6 +198,8 @@ class SerialBridge(Node):
         s.queue_size = QUEUE_SIZE
         s.last_error = self.session.last_error
         s.firmware_version = self.session.firmware
+        s.link_baud = int(self.get_parameter("baud").value)
+        s.next_seq = self.session.link.next_seq if self.session.link else 0
         job = self._job
         if job is not None and job.commands:
             s.current_line = job.line_of(job.started - 1)
