@@ -3,7 +3,10 @@
 The firmware's own core (host build of firmware/core) runs here: bytes from
 the pty reach its receive interrupt at the configured baud rate, its main
 loop parses them, and its step interrupt fires on the schedule its timer
-asks for, in real time.  Every step can be written to a trace file
+asks for, in real time.  Its replies leave at the baud rate too, through the
+8051's 16-byte transmit ring: while more than that waits to be sent, the
+main loop waits (the firmware's `hal_putc` blocks) and parses nothing.
+Every step can be written to a trace file
 (`t_s,x_steps,y_steps`, board time in seconds, absolute positions; a
 machine with a Z axis runs the core built with ZAXIS=1 and adds `z_steps`), and
 every queued command the board starts to a sequence log (`seq`, the wire
@@ -35,6 +38,11 @@ from typing import IO, Optional
 from .faults import FaultCounts, FaultSpec, FaultyChannel
 from .firmware_core import CYCLES_PER_S, FirmwareCore, find_library
 from .kinematics import Machine
+from .uart import PacedLine
+
+TX_SIZE = 16          # firmware core/config.h: the transmit ring
+# Bytes the board acts on as soon as they arrive: line ends and the real-time bytes.
+RX_EVENTS = b"\n\r?!~\x18\x1b"
 
 
 @dataclass
@@ -67,7 +75,9 @@ class MockBoard:
             self._seq_file.flush()
         self._seq_seen = 0
         self._trace_dirty = False
-        self._pending_rx = bytearray()
+        self.rx = PacedLine(config.baud)        # pty -> core, on the wire
+        self.tx = PacedLine(config.baud)        # core -> pty: transmit ring and shift register
+        self._tx_out = bytearray()              # sent by the UART, not yet written to the pty
         self._stop = threading.Event()
         self._thread: Optional[threading.Thread] = None
         self._lock = threading.Lock()           # events asked for by other threads
@@ -151,34 +161,70 @@ class MockBoard:
     # --- the simulation loop ---------------------------------------------------
     def run(self) -> None:
         wall0 = time.monotonic()
-        last = 0.0
-        rx_credit = 0.0
         last_seq_sync = 0.0
         while not self._stop.is_set():
             now = (time.monotonic() - wall0) * self.config.speed
-            dt, last = now - last, now
             self._events(now)
             self._read_pty(now)
-            self._pending_rx += self.down.receive(now)
-            # The UART delivers one byte per 10 bit times.
-            rx_credit = min(rx_credit + dt * self.config.baud / 10, 256)
-            n = min(int(rx_credit), len(self._pending_rx))
-            if n:
-                self.core.receive(bytes(self._pending_rx[:n]))
-                del self._pending_rx[:n]
-                rx_credit -= n
-            self.core.poll(4)
+            self.rx.push(self.down.receive(now), now)
             self._run_steps(now)
+            self._serial(now)
             self._write_pty(now)
             if self._seq_file and (now - last_seq_sync > 0.05 or not self.core.timer_running()):
                 self._sync_seq_log()
                 last_seq_sync = now
-            if not self.core.timer_running() and not self._pending_rx and self.connected:
-                select.select([self._master], [], [], 0.002)
-            elif self.core.timer_running() and self.board_time > now:
-                time.sleep(min(0.001, (self.board_time - now) / self.config.speed))
-            elif not self.connected:
-                time.sleep(0.002)
+            self._wait(now)
+
+    def _wait(self, now: float) -> None:
+        """Sleep until the next byte the board or the host acts on (a line
+        end or a real-time byte in either direction), input from the pty,
+        or at most a millisecond while the board moves (its steps are
+        caught up in batches), two while it rests."""
+        wake = now + (0.001 if self.core.timer_running() else 0.002)
+        for t in (self.rx.due(RX_EVENTS), self.tx.due(b"\n"), self._tx_unblocked_at()):
+            if t is not None:
+                wake = min(wake, t)
+        timeout = max(0.0, (wake - now) / self.config.speed)
+        if self.connected:
+            select.select([self._master], [], [], timeout)
+        else:
+            time.sleep(timeout)
+
+    # --- the UART, both ways, at the baud rate ---------------------------------------
+    def _serial(self, t: float) -> None:
+        """At board time t: bytes that have arrived by then enter the receive
+        ring, and the main loop runs if it can."""
+        data = self.rx.pop_due(t)
+        if data:
+            self.core.receive(data)
+        self._main_loop(t)
+
+    def _serial_due(self, t: float) -> Optional[float]:
+        """When the main loop next has something to act on: a line end or a
+        real-time byte arriving, or room again in the transmit ring."""
+        times = [x for x in (self.rx.due(RX_EVENTS), self._tx_unblocked_at()) if x is not None]
+        return min(times) if times else None
+
+    def _tx_blocked(self) -> bool:
+        # The transmit ring plus the byte in the shift register.
+        return len(self.tx) > TX_SIZE + 1
+
+    def _tx_unblocked_at(self) -> Optional[float]:
+        if not self._tx_blocked():
+            return None
+        return self.tx.due() + (len(self.tx) - TX_SIZE - 2) * self.tx.byte_time
+
+    def _main_loop(self, t: float) -> None:
+        """Run the firmware's main loop (a line or a status report per pass)
+        while its replies fit in the transmit ring."""
+        self._tx_out += self.tx.pop_due(t)
+        for _ in range(4):
+            if self._tx_blocked():
+                return
+            self.core.poll()
+            out = self.core.transmitted()
+            if out:
+                self.tx.push(out, t)
 
     def _events(self, now: float) -> None:
         faults = self.config.faults
@@ -192,7 +238,9 @@ class MockBoard:
         if unplug is not None and self.connected:
             self.unplugs += 1
             self._close_pty()
-            self._pending_rx.clear()
+            self.rx.clear()
+            self.tx.clear()
+            self._tx_out.clear()
             self.down.clear()
             self.up.clear()
             self._replug_at = now + unplug * self.config.speed
@@ -206,7 +254,9 @@ class MockBoard:
                 self._seq_file.write("reset\n")
             self.core.reset()
             self._seq_seen = 0
-            self._pending_rx.clear()
+            self.rx.clear()
+            self.tx.clear()
+            self._tx_out.clear()
 
     def _sync_seq_log(self) -> None:
         """Append the commands started since the last call to the log file."""
@@ -227,12 +277,17 @@ class MockBoard:
                 self._trace.flush()       # readers see a finished move at once
                 self._trace_dirty = False
             return
-        # Catch up with every step interrupt due by now, on the board's own clock.
+        # Catch up with every step interrupt due by now, on the board's own
+        # clock, the serial line's events in between.
+        serial_due = self._serial_due(now)
         budget = 20000
         while core.timer_running() and budget:
             due = self.board_time + core.period() / CYCLES_PER_S
             if due > now:
                 break
+            if serial_due is not None and serial_due <= due:
+                self._serial(due)
+                serial_due = self._serial_due(due)
             self.board_time = due
             budget -= 1
             if core.tick():
@@ -250,7 +305,8 @@ class MockBoard:
                         self._trace.write(f"{self.board_time:.6f},{x},{y}{z}\n")
                     self._trace_dirty = True
             if budget % 64 == 0:
-                core.poll()
+                self._main_loop(due)
+                serial_due = self._serial_due(due)
 
     def _read_pty(self, now: float) -> None:
         if not self.connected:
@@ -262,7 +318,8 @@ class MockBoard:
         self.down.send(data, now)
 
     def _write_pty(self, now: float) -> None:
-        out = self.core.transmitted()
+        out = bytes(self._tx_out) + self.tx.pop_due(now)
+        self._tx_out.clear()
         if out and self.connected:
             self.up.send(out, now)
         data = self.up.receive(now)

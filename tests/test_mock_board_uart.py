@@ -1,0 +1,66 @@
+"""The mock board's serial line at the baud rate, on times the test chooses
+(no real-time waits): bytes in both directions take 10 bit times each, idle
+time is not saved up, and the main loop waits while the 16-byte transmit
+ring is full, as on the 8051."""
+import pytest
+
+from firmware_build import host_library
+from plotter_bridge.firmware_core import FirmwareCore
+from plotter_bridge.mock_board import TX_SIZE, MockBoard, MockBoardConfig
+from plotter_bridge.protocol import machine_line
+from plotter_bridge.uart import PacedLine
+
+BYTE_9600 = 10 / 9600
+
+
+def test_paced_line_sends_one_byte_per_ten_bit_times():
+    line = PacedLine(9600)
+    line.push(b"abc\n", 1.0)
+    assert line.pop_due(1.0 + 0.5 * BYTE_9600) == b""
+    assert line.pop_due(1.0 + 2.01 * BYTE_9600) == b"ab"
+    assert line.due(b"\n") == pytest.approx(1.0 + 4 * BYTE_9600)
+    assert line.pop_due(5.0) == b"c\n"
+    # Idle time is not saved up: bytes handed over later start then.
+    line.push(b"xy", 9.0)
+    assert line.pop_due(9.0 + 1.5 * BYTE_9600) == b"x"
+    assert line.due() == pytest.approx(9.0 + 2 * BYTE_9600)
+
+
+def test_paced_line_queues_behind_bytes_still_on_the_wire():
+    line = PacedLine(9600)
+    line.push(b"12345", 0.0)
+    line.push(b"6", 0.001)                      # the wire is still busy with the first five
+    assert line.due(b"6") == pytest.approx(6 * BYTE_9600)
+    assert line.pop_due(10.0) == b"123456"
+
+
+@pytest.fixture
+def board():
+    b = MockBoard(MockBoardConfig(baud=9600), FirmwareCore(host_library()))
+    yield b
+    b.close()
+
+
+def test_mock_board_replies_at_the_baud_rate(board):
+    """A status report and two acknowledgements leave byte by byte, and while
+    they fill the transmit ring a line that arrives waits in the receive ring.
+    (A pass of the host build's main loop cannot stop half-way, so the line
+    that arrived with the report is parsed in the same pass.)"""
+    board.core.transmitted()                                       # the banner
+    board.rx.push(b"?" + machine_line(0, "L 10 0") + machine_line(1, "L 10 0"), 0.0)
+    first = board.rx.due(b"\n")
+    board._serial(first)
+    assert len(board.tx) > TX_SIZE + 1
+    second = board.rx.due(b"\n")
+    board._serial(second)
+    assert board.core.rx_free() < 64                                # waits: the ring still holds it
+    t, sent = second, b""
+    while b"ok N1" not in sent:
+        t += BYTE_9600
+        board._main_loop(t)
+        sent += bytes(board._tx_out)
+        board._tx_out.clear()
+    report, first_ok = sent.split(b"\r\n")[:2]
+    assert report.startswith(b"<Idle") and first_ok.startswith(b"ok N0")
+    # Parsed only once all but 17 bytes of the report and the first reply had left.
+    assert t >= first + (len(report) + len(first_ok) + 4 - TX_SIZE - 1) * BYTE_9600 - 1e-9
