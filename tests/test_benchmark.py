@@ -10,7 +10,7 @@ import pytest
 from firmware_build import host_library
 from plotter_bridge.commands import BoardCommand
 from plotter_bridge.firmware_core import FirmwareCore
-from plotter_bridge.planner import cap_for_link, wire_bytes
+from plotter_bridge.planner import cap_for_link, link_baud, wire_bytes
 from plotter_bridge.protocol import machine_line
 
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent / "benchmarks"))
@@ -124,3 +124,10 @@ def test_link_cap_gives_neighbouring_chords_one_rate():
     board = sum(c.steps / c.rate for c in cmds[6:])
     link = sum(wire_bytes(c, seq=106 + k) for k, c in enumerate(cmds[6:])) / (11520.0 * 0.95)
     assert board == pytest.approx(link, rel=0.02)
+
+
+def test_streamer_plans_for_the_bridges_baud_unless_told():
+    assert link_baud(-1, 9600) == 9600          # gcode_streamer's default: serial_bridge's baud
+    assert link_baud(0, 9600) == 0              # off
+    assert link_baud(115200, 9600) == 115200
+    assert link_baud(-1, 0) == 0                # a bridge that does not say
