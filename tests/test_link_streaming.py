@@ -197,3 +197,18 @@ def test_status_polls_take_a_share_of_the_link(core, baud):
     port.polls, t0 = 0, port.now
     assert run_until(port, link, lambda: link.outstanding < 1000, limit=port.now + 600)
     assert 0 < port.polls <= budget(STATUS_SHARE, port.now - t0)
+
+
+def test_full_queue_is_probed_with_a_line_the_board_has_run(core):
+    """With the board's queue full and nothing on its way, the link learns of
+    a free slot from the ok to a long-executed number: status reports are
+    not needed (here one every 10 s), nothing runs twice, nothing is resent."""
+    port = SimPort(core)
+    link = connect(port, status_interval=10.0, baud=115200)
+    for k in range(40):
+        link.submit(f"L {400 * (1 - 2 * (k % 2))} 0 8000 0")       # 50 ms each: the queue fills
+    assert run_until(port, link, finished(port, link), limit=port.now + 9.0)
+    assert link.stats.probes > 0
+    assert link.stats.retransmissions == link.stats.garbled_replies == link.stats.resend_requests == 0
+    assert core.seq_log() == list(range(40))
+    assert core.position == (0, 0)
