@@ -18,6 +18,7 @@ from __future__ import annotations
 
 import math
 import select
+import sys
 import threading
 import time
 from typing import List, Optional
@@ -47,6 +48,7 @@ STATE_NAMES = {BoardState.IDLE: "IDLE", BoardState.RUNNING: "RUNNING", BoardStat
 MAX_COMMAND_LEN = 40            # the firmware accepts 48 characters with N and checksum
 MAX_JOB_COMMANDS = 1_000_000
 MAX_LEASE_S = 3600.0
+IO_SWITCH_INTERVAL = 0.0002     # s; see SerialBridge.__init__
 DEFAULT_NAMESPACE = "/plotter"   # `-r __ns:=/plotter2` runs a second plotter beside it
 
 
@@ -133,6 +135,10 @@ class SerialBridge(Node):
         self.session = BoardSession(self._open_port, config, on_status=self._on_status,
                                     on_change=self._on_change, log=self._log)
         self._running = True
+        # A thread that wants the interpreter waits up to the switch interval (5 ms)
+        # for the one that has it, e.g. a telemetry timer building a long path;
+        # the I/O thread must answer an ok well within a line's 2.3 ms.
+        sys.setswitchinterval(IO_SWITCH_INTERVAL)
         self._io = threading.Thread(target=self._io_loop, name="serial-io", daemon=True)
         self._io.start()
 
