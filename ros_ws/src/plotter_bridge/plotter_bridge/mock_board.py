@@ -43,6 +43,7 @@ from .uart import PacedLine
 TX_SIZE = 16          # firmware core/config.h: the transmit ring
 # Bytes the board acts on as soon as they arrive: line ends and the real-time bytes.
 RX_EVENTS = b"\n\r?!~\x18\x1b"
+STALL = 0.003         # s: a pass of the loop this much later than it meant to wake is a stall
 
 
 @dataclass
@@ -87,6 +88,11 @@ class MockBoard:
         self.down = FaultyChannel(config.faults, 0)    # pty -> core
         self.up = FaultyChannel(config.faults, 1)      # core -> pty
         self.board_time = 0.0          # seconds on the board's clock
+        # Passes that ran STALL or more after they were due (the process was not
+        # scheduled): the board's steps catch up, but its serial line was late.
+        self.stalls = 0
+        self.stall_max = 0.0
+        self._wake_at = 0.0
         self.steps = 0
         self.unplugs = 0
         self.resets = 0
@@ -164,6 +170,10 @@ class MockBoard:
         last_seq_sync = 0.0
         while not self._stop.is_set():
             now = (time.monotonic() - wall0) * self.config.speed
+            late = now - self._wake_at
+            if late >= STALL and self._wake_at > 0:
+                self.stalls += 1
+                self.stall_max = max(self.stall_max, late)
             self._events(now)
             self._read_pty(now)
             self.rx.push(self.down.receive(now), now)
@@ -185,6 +195,7 @@ class MockBoard:
             if t is not None:
                 wake = min(wake, t)
         timeout = max(0.0, (wake - now) / self.config.speed)
+        self._wake_at = max(now, wake)
         if self.connected:
             select.select([self._master], [], [], timeout)
         else:
