@@ -8,9 +8,10 @@ Run through benchmarks/run (sets the project up first).  Two boards:
   gcode_streamer) in real time, measured from the mock board's step trace,
   the position topic and /proc;
 - sim: the same firmware core and the host's BoardLink on a simulated clock
-  (simboard.py), exact and fast; unlike the mock board it also limits the
-  board's replies to the baud rate and blocks the firmware's main loop on a
-  full transmit ring, as the 8051 does.
+  (simboard.py), exact and fast, no ROS.
+
+Both send the board's replies at the baud rate and hold the firmware's main
+loop while its transmit ring is full, as the 8051 does.
 
 The output ends with the line
 `figures: time_ratio_max=R link_utilization_min=U underruns=N`.
@@ -69,6 +70,7 @@ class DrawRow:
     mock_underruns: int = 0
     mock_exp_underruns: int = 0
     mock_late: Optional[float] = None      # part of the run the mock board was behind real time
+    mock_stalls: Optional[int] = None      # its loop passes 3 ms or more late
 
 
 @dataclass
@@ -79,18 +81,18 @@ class LinkCase:
     feed: float
     segments: int
     link_bound: bool          # segments shorter than their line takes on the wire
-    status_hz: float = 25.0   # serial_bridge's status_hz (its default: 25)
-    link_cap: bool = False    # the streamer's link_baud set: the planner slows commands to the link
+    link_cap: bool = True     # the streamer's link_baud (default: the bridge's): the planner slows commands to the link
+    status_scaled: bool = True  # BoardLink holds status polls to a share of the link's bytes (it knows the baud)
 
     @property
     def variant(self) -> str:
-        parts = ([f"status {self.status_hz:g} Hz"] if self.status_hz != 25.0 else []) + \
-                (["planner link cap"] if self.link_cap else [])
+        parts = ([] if self.link_cap else ["no planner link cap"]) + \
+                ([] if self.status_scaled else ["status 25 Hz whatever the baud"])
         return ", ".join(parts) or "defaults"
 
     @property
     def default(self) -> bool:
-        return self.status_hz == 25.0 and not self.link_cap
+        return self.link_cap and self.status_scaled
 
 
 @dataclass
@@ -104,6 +106,7 @@ class LinkRow:
     underruns: int
     reply_share: Optional[float] = None    # sim: reply bytes / command bytes
     late: Optional[float] = None           # mock: part of the run it was behind real time
+    stalls: Optional[int] = None           # mock: loop passes 3 ms or more late
 
     @property
     def utilization(self) -> Optional[float]:
@@ -191,10 +194,10 @@ def sim_drawings(programs: Sequence[Program], limits: Limits) -> List[DrawRow]:
 
 
 def sim_link(case: LinkCase) -> LinkRow:
-    session = SimSession(baud=case.baud, status_hz=case.status_hz)
+    session = SimSession(baud=case.baud, scale_status=case.status_scaled)
     try:
         prog = polygon_program(case.segments, case.chord, case.feed)
-        config = StreamerConfig(link_baud=case.baud if case.link_cap else 0)
+        config = StreamerConfig(link_baud=case.baud if case.link_cap else 0, link_seq=session.link.next_seq)
         cmds = compile_for(prog, session.position, config=config)
         r = session.stream(cmds)
     finally:
@@ -263,6 +266,7 @@ def mock_runs(args, programs: Sequence[Program], cases: Sequence[LinkCase], limi
                     draw[prog.name].mock = r.board_time
                     draw[prog.name].mock_underruns = r.underruns
                     draw[prog.name].mock_late = r.late
+                    draw[prog.name].mock_stalls = r.stalls
                     if prog.name.startswith("spiral"):
                         hosts.append(host_row(f"mock, 115200 baud, {prog.name}", [r]))
             runs = []
@@ -278,6 +282,7 @@ def mock_runs(args, programs: Sequence[Program], cases: Sequence[LinkCase], limi
                 wire = [len(machine_line(r.first_seq + k, c.text)) for k, c in enumerate(r.commands)]
                 links.append(link_row(case, "mock", r.commands, segment_end_times(r), r.underruns, wire))
                 links[-1].late = r.late
+                links[-1].stalls = r.stalls
             if baud != 115200 and runs:
                 hosts.append(host_row(f"mock, {baud} baud, link rows", runs))
         finally:
@@ -314,11 +319,13 @@ def report(draw: List[DrawRow], links: List[LinkRow], hosts: List[HostRow], mock
       f"(look-ahead off). \"fast exits\": commands the board left more than two ramp levels (400 "
       f"steps/s) faster than planned, and the worst ratio of board to planned exit rate (sim, $1=0). "
       f"\"mock late\": part of the run the mock board ran more than 5 ms behind real time (a "
-      f"busy machine starves it; its figures then measure the machine).")
+      f"busy machine starves it; its figures then measure the machine); \"mock stalls\": passes of "
+      f"its loop that ran 3 ms or more after they were due (its steps catch up, but its replies "
+      f"went out and the host's lines came in that much late).")
     w("")
     head = ["program", "cmds", "bound s", "sim $1=0 s", "ratio"]
     if mock:
-        head += ["mock $1=0 s", "ratio", "mock late"]
+        head += ["mock $1=0 s", "ratio", "mock late", "mock stalls"]
     head += ["sim $1=1 s", "ratio"]
     if mock_exp:
         head += ["mock $1=1 s", "ratio"]
@@ -334,7 +341,7 @@ def report(draw: List[DrawRow], links: List[LinkRow], hosts: List[HostRow], mock
         underruns += r.sim.underruns
         if mock:
             cells += [fmt(r.mock), fmt(None if r.mock is None else r.mock / r.bound),
-                      percent(r.mock_late)]
+                      percent(r.mock_late), fmt(r.mock_stalls, "d")]
             if r.mock is not None:
                 ratios.append(r.mock / r.bound)
             underruns += r.mock_underruns
@@ -357,16 +364,20 @@ def report(draw: List[DrawRow], links: List[LinkRow], hosts: List[HostRow], mock
     w("## 2. Serial link: 1 mm segments (and 0.1 mm to outrun 115200 baud)")
     w("")
     w("Chords of a circle (r = 80 mm), every command the same length. Link limit = baud / 10 / "
-      "(bytes per command on the wire: `N<seq> L dx dy feed exit *<sum>\\n`). Segments/s: middle "
-      "half of the run, from when each command's last step was taken. \"link-bound\" rows: each "
-      "segment is shorter than its line's time on the wire, so the board must wait (underruns "
-      "expected, the utilisation is the measure); the other rows: segments last longer than the "
-      "link needs to deliver them, so the board should never run dry (target: 0 underruns). "
-      "mock = MockBoard, whose replies are not limited by the baud rate; sim = replies at the baud "
-      "rate through the 16-byte transmit ring (reply/cmd bytes: what the board sent per byte received).")
+      "(bytes per command on the wire: `N<seq>L<dx> <dy> <feed> <exit>*<sum>\\n`, a zero exit left "
+      "out). Segments/s: middle half of the run, from when each command's last step was taken; "
+      "segment ms: at the programmed feed. \"link-bound\" rows: at that feed each segment is "
+      "shorter than its line's time on the wire; by default gcode_streamer's planner slows such "
+      "commands to the link's pace (planner.cap_for_link: 97 % of its bytes), with \"no planner "
+      "link cap\" the board runs dry and brakes to a stop at the end of each (underruns expected); "
+      "the utilisation is the measure. The other rows: segments last longer than the link needs to "
+      "deliver them, so the board should never run dry (target: 0 underruns). \"status 25 Hz "
+      "whatever the baud\": BoardLink not told the baud, so its status polls are not held to a "
+      "share of the link. Both boards send their replies at the baud rate through the 16-byte "
+      "transmit ring (reply/cmd bytes: what the simulated board sent per byte received).")
     w("")
     head = ["case", "board", "configuration", "segment ms", "bytes/cmd", "link limit seg/s", "seg/s",
-            "utilisation", "underruns", "reply/cmd bytes", "mock late"]
+            "utilisation", "underruns", "reply/cmd bytes", "mock late", "mock stalls"]
     w("| " + " | ".join(head) + " |")
     w("|" + "|".join("---" for _ in head) + "|")
     util_min = math.inf
@@ -377,7 +388,7 @@ def report(draw: List[DrawRow], links: List[LinkRow], hosts: List[HostRow], mock
             f"{r.case.label} ({kind})", r.board, r.case.variant, f"{r.segment_ms:.1f}",
             f"{r.bytes_per_segment:.1f}", f"{r.limit:.1f}", fmt(r.seg_per_s, ".1f"), fmt(u, ".3f"),
             str(r.underruns), fmt(r.reply_share, ".2f"),
-            percent(r.late)]) + " |")
+            percent(r.late), fmt(r.stalls, "d")]) + " |")
         if r.case.default and r.case.link_bound and u is not None:
             util_min = min(util_min, u)
         if r.case.default and not r.case.link_bound:
@@ -391,8 +402,8 @@ def report(draw: List[DrawRow], links: List[LinkRow], hosts: List[HostRow], mock
           "subscriber process minus the time of the step that brought the pen to the reported "
           "position (from the step trace); \"step->bridge\": the message's header stamp (when "
           "serial_bridge parsed the status report) minus the same step time. sim rows: the "
-          "same up to BoardLink parsing the report (no ROS), with the report sent at the baud "
-          "rate (the mock board sends it at once); Hz: status reports per second.")
+          "same up to BoardLink parsing the report (no ROS). Both boards send the report at the "
+          "baud rate: 4.3 ms at 115200, 52 ms at 9600. Hz: status reports per second.")
         w("")
         head = ["run", "messages", "step->subscriber median ms", "p99 ms", "step->bridge median ms",
                 "p99 ms", "topic Hz"]
@@ -474,8 +485,8 @@ def main() -> int:
     draw = sim_drawings(programs, limits)
     cases = link_cases()
     fast = [c for c in cases if c.link_bound]
-    sim_cases = cases + [replace(c, link_cap=True) for c in fast] + \
-        [replace(c, status_hz=2.0, link_cap=cap) for c in fast if c.baud == 9600 for cap in (False, True)]
+    sim_cases = cases + [replace(c, link_cap=False) for c in fast] + \
+        [replace(c, status_scaled=False) for c in cases if c.baud == 9600]
     log("simulated board: link rows")
     links = [sim_link(c) for c in sim_cases]
     log("simulated board: status report latency")

@@ -21,6 +21,7 @@ from pathlib import Path
 from typing import Dict, List, Optional, Sequence, Tuple
 
 from plotter_bridge.commands import BoardCommand
+from plotter_bridge.program import StreamerConfig
 from plotter_bridge.node_processes import NodeProcess, wait_until
 
 from latency import report_ages
@@ -62,6 +63,7 @@ class MockRun:
     positions: List[Position] = field(default_factory=list)
     cpu: Dict[str, float] = field(default_factory=dict)      # node: CPU % of one core
     rss_mb: Dict[str, float] = field(default_factory=dict)   # node: largest resident set
+    stalls: int = 0                               # mock board loop passes 3 ms or more late
 
     @property
     def board_time(self) -> float:
@@ -164,6 +166,7 @@ class BenchGraph:
         self.link = workdir / "board.pty"
         self.stats_path = workdir / "board.json"
         self.trace = TraceReader(workdir / "trace.csv")
+        self.baud = baud
         cmd = [sys.executable, str(HERE / "mockproc.py"), "--link", str(self.link),
                "--trace", str(self.trace.path), "--stats", str(self.stats_path), "--baud", str(baud)]
         for s in settings:
@@ -184,7 +187,6 @@ class BenchGraph:
         rclpy.init(context=self.context, domain_id=self.domain)
         self.node = rclpy.create_node("benchmark_probe", namespace="/plotter", context=self.context)
         self.positions: List[Position] = []
-        self.commands_sent = 0                    # the bridge numbers commands from 0 at power-on
         self.state = None
         self._lock = threading.Lock()
         latched = QoSProfile(depth=1, reliability=ReliabilityPolicy.RELIABLE,
@@ -221,7 +223,9 @@ class BenchGraph:
         wait_until(lambda: self.state is not None and self.state.state == self._idle
                    and self.state.queue_free == self.state.queue_size, 30, "an idle board")
         start = (self.state.x_steps, self.state.y_steps)
-        commands = compile_for(program, start)
+        first_seq = self.state.next_seq
+        # As gcode_streamer compiles it: the link cap at the bridge's baud.
+        commands = compile_for(program, start, config=StreamerConfig(link_baud=self.baud, link_seq=first_seq))
         self.trace.update()
         first_row = len(self.trace.rows)
         first_pos = len(self.positions)
@@ -253,12 +257,12 @@ class BenchGraph:
         self.trace.update()
         steps = self.trace.rows[first_row:]
         cpu, rss = self.sampler.window(t_sent, t_done)
-        first_seq, self.commands_sent = self.commands_sent, self.commands_sent + len(commands)
         stats1 = self.board_stats()
         late = (stats1["late"] - stats0["late"]) / max(1, stats1["samples"] - stats0["samples"])
         return MockRun(program.name, bool(result.get("ok")), str(result.get("message", "")),
                        commands, steps, stats1["underruns"] - stats0["underruns"], t_sent, t_done,
-                       first_seq, late, self.positions[first_pos:], cpu, rss)
+                       first_seq, late, self.positions[first_pos:], cpu, rss,
+                       stats1.get("stalls", 0) - stats0.get("stalls", 0))
 
     def close(self) -> None:
         import rclpy

@@ -15,12 +15,13 @@ one byte per 10 bit times in *both* directions:
 
 The main loop itself runs in zero time (the host build of the core), unless
 `line_cycles` gives it a cost per line, e.g. as measured on the 8051 image.
-The host side polls every `host_period` seconds, like the serial bridge's
-I/O thread: whatever has arrived is read, and what the link decides to send
-goes on the wire at that moment.
+The host side polls every `host_period` seconds, standing for the serial
+bridge's I/O thread, which wakes when bytes arrive: whatever has arrived is
+read, and what the link decides to send goes on the wire at that moment.
 
 Used by the benchmark for board times and link throughput without real-time
-waits; `MockBoard` does the same in real time but sends its replies at once.
+waits; `MockBoard` does the same in real time (its replies through the
+transmit ring too, but a pass of its main loop cannot stop half-way).
 """
 from __future__ import annotations
 

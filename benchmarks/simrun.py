@@ -15,6 +15,9 @@ from simboard import SimBoard, settle
 
 BRIDGE_STATUS_HZ = 25.0      # serial_bridge's default status_hz
 BRIDGE_ACK_TIMEOUT = 0.5     # serial_bridge's default ack_timeout
+# serial_bridge's I/O thread waits on the port (select) and acts on a reply
+# when it arrives; polling every 0.2 ms stands for the time it takes to wake.
+HOST_PERIOD = 0.0002
 START_RATE = 250             # the ramp's level 0: an exit of 0 means this rate
 LEVEL_STEP = 200             # trapezoid: steps/s between two ramp levels
 
@@ -46,7 +49,8 @@ class SimSession:
 
     def __init__(self, baud: int = 115200, settings: Sequence[str] = (),
                  status_hz: float = BRIDGE_STATUS_HZ, line_cycles: int = 0,
-                 host_period: float = 0.001, record_steps: bool = False) -> None:
+                 host_period: float = HOST_PERIOD, record_steps: bool = False,
+                 scale_status: bool = True) -> None:
         self.core = FirmwareCore()
         self.board = SimBoard(self.core, baud=baud, line_cycles=line_cycles, host_period=host_period,
                               record_steps=record_steps)
@@ -61,7 +65,7 @@ class SimSession:
         self._acks: List[float] = []
         self.link = BoardLink(self.board.port, clock=self.board.clock,
                               ack_timeout=BRIDGE_ACK_TIMEOUT,
-                              status_interval=1.0 / status_hz, baud=baud,
+                              status_interval=1.0 / status_hz, baud=baud if scale_status else 0,
                               on_ack=self._on_ack, on_status=self._on_status)
         self.link.request_status()
         if not self.board.run(lambda: self.link.status is not None, self.link.poll, limit=self.board.now + 2):
