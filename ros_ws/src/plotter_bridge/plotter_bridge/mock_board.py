@@ -93,6 +93,7 @@ class MockBoard:
         self.stalls = 0
         self.stall_max = 0.0
         self._wake_at = 0.0
+        self._wall0 = 0.0
         self.steps = 0
         self.unplugs = 0
         self.resets = 0
@@ -166,10 +167,10 @@ class MockBoard:
 
     # --- the simulation loop ---------------------------------------------------
     def run(self) -> None:
-        wall0 = time.monotonic()
+        self._wall0 = time.monotonic()
         last_seq_sync = 0.0
         while not self._stop.is_set():
-            now = (time.monotonic() - wall0) * self.config.speed
+            now = self._clock()
             late = now - self._wake_at
             if late >= STALL and self._wake_at > 0:
                 self.stalls += 1
@@ -185,6 +186,10 @@ class MockBoard:
                 last_seq_sync = now
             self._wait(now)
 
+    def _clock(self) -> float:
+        """Board seconds since the loop started."""
+        return (time.monotonic() - self._wall0) * self.config.speed
+
     def _wait(self, now: float) -> None:
         """Sleep until the next byte the board or the host acts on (a line
         end or a real-time byte in either direction), input from the pty,
@@ -194,8 +199,9 @@ class MockBoard:
         for t in (self.rx.due(RX_EVENTS), self.tx.due(b"\n"), self._tx_unblocked_at()):
             if t is not None:
                 wake = min(wake, t)
-        timeout = max(0.0, (wake - now) / self.config.speed)
+        # From the time it is now: this pass's work has taken some of it.
         self._wake_at = max(now, wake)
+        timeout = max(0.0, (wake - self._clock()) / self.config.speed)
         if self.connected:
             select.select([self._master], [], [], timeout)
         else:
