@@ -11,14 +11,20 @@ from pathlib import Path
 REPO_ROOT = Path(__file__).resolve().parent.parent
 FIRMWARE = REPO_ROOT / "firmware"
 
-DEFAULTS = {"INTERP": "pbp", "DRIVE": "stepdir", "ZAXIS": "0"}
+DEFAULTS = {"INTERP": "pbp", "DRIVE": "stepdir", "ZAXIS": "0", "PANEL": "0"}
+
+
+# Options that are on/off flags: their directory name when on.
+FLAG_NAMES = {"ZAXIS": "z", "PANEL": "panel"}
 
 
 def build_dir(**options) -> Path:
     """firmware/build/ or firmware/build/<options>/, as the Makefile names it."""
-    names = [options.get(k, v) for k, v in DEFAULTS.items()]
-    names = [n for n, default in zip(names, DEFAULTS.values()) if n != default]
-    names = ["z" if n == "1" else n for n in names]          # ZAXIS=1
+    names = []
+    for key, default in DEFAULTS.items():
+        value = options.get(key, default)
+        if value != default:
+            names.append(FLAG_NAMES.get(key, value))
     return FIRMWARE / "build" / "-".join(names) if names else FIRMWARE / "build"
 
 

@@ -6,6 +6,11 @@
 
 #define FW_NAME     "PLOTTER 8051"
 #define FW_VERSION  "1.0"
+#ifdef PANEL
+#define FW_EDITION  " panel"        /* the banner tells a host which image it meets */
+#else
+#define FW_EDITION  ""
+#endif
 
 /* STC89C52RC at 11.0592 MHz, 12 clocks per machine cycle. */
 #define CYCLES_PER_S  921600UL
@@ -29,6 +34,19 @@
  * step. */
 #if defined(INTERP_DDA) || defined(INTERP_COMPARE)
 #define INTERP_DIAGONAL 1
+#endif
+
+/* The front panel (build option PANEL, README.md: keypad, LCD, 7-segment
+ * display, built-in figures, e-stop and limit inputs, core/panel.h).  Its
+ * image talks to a person at a serial terminal; it has no room for the
+ * host link (HOST_LINK): machine lines with sequence numbers and checksums,
+ * checksummed replies, feed hold, the dwell and `$` settings commands (the
+ * settings are fixed, planner.h) and the exponential ramp. */
+#ifdef PANEL
+#define RAMP_TRAPEZOID_ONLY 1
+#define RT_STAR     'a'             /* real-time byte between lines: draw the star (seed 000, 4.3) */
+#else
+#define HOST_LINK 1
 #endif
 
 #if defined(DRIVE_PHASE3) || defined(DRIVE_PHASE3D) || defined(DRIVE_UNIPOLAR)

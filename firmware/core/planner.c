@@ -21,7 +21,9 @@ FAST volatile uint8_t q_head, q_tail;
 IDATA uint16_t plan_arg[6];
 IDATA uint16_t plan_seq;
 
+#ifndef PANEL
 IDATA uint16_t setting[SETTINGS] = {1, RAMP_TRAPEZOID, 2000, 150};
+#endif
 
 #define FEED_MIN 15u    /* slower would overflow the 16-bit step period */
 
@@ -80,13 +82,13 @@ static uint8_t commit(void)
  * it: the braking distance to that level. */
 static uint8_t level_for_rate(uint16_t rate)
 {
-    RAMP_ROM uint8_t *holds = &ramp_hold[RAMP_ROW(setting[SET_SHAPE])];
+    RAMP_ROM uint8_t *holds = &ramp_hold[RAMP_ROW(SETTING(SET_SHAPE))];
     uint8_t k = 0;
-    uint16_t sum = (uint16_t)((uint8_t)holds[0] * (uint8_t)setting[SET_ACCEL]);
+    uint16_t sum = (uint16_t)((uint8_t)holds[0] * (uint8_t)SETTING(SET_ACCEL));
     while (k < RAMP_LEVELS - 1 &&
-           RAMP_RATE(setting[SET_SHAPE], k + 1) <= rate) {
+           RAMP_RATE(SETTING(SET_SHAPE), k + 1) <= rate) {
         k++;
-        sum += (uint16_t)((uint8_t)holds[k] * (uint8_t)setting[SET_ACCEL]);
+        sum += (uint16_t)((uint8_t)holds[k] * (uint8_t)SETTING(SET_ACCEL));
     }
     plan.exit_brake = sum;
     return k;
@@ -95,8 +97,8 @@ static uint8_t level_for_rate(uint16_t rate)
 /* Ramp fields shared by lines and arcs, then into the queue. */
 static uint8_t plan_motion(void)
 {
-    uint16_t top = RAMP_TOP(setting[SET_SHAPE]);
-    if (plan_arg[PLAN_FEED] == 0) plan_arg[PLAN_FEED] = setting[SET_FEED];
+    uint16_t top = RAMP_TOP(SETTING(SET_SHAPE));
+    if (plan_arg[PLAN_FEED] == 0) plan_arg[PLAN_FEED] = SETTING(SET_FEED);
     if (plan_arg[PLAN_FEED] < FEED_MIN) plan_arg[PLAN_FEED] = FEED_MIN;
     if (plan_arg[PLAN_FEED] > top) plan_arg[PLAN_FEED] = top;
     if (plan_arg[PLAN_EXIT] > plan_arg[PLAN_FEED]) plan_arg[PLAN_EXIT] = plan_arg[PLAN_FEED];
@@ -396,10 +398,11 @@ uint8_t planner_pen(uint8_t down)
 {
     plan.kind = SEG_PEN;
     plan.dirs = down ? BIT_PEN : 0;
-    plan.steps = setting[SET_PEN] ? setting[SET_PEN] : 1;
+    plan.steps = SETTING(SET_PEN) ? SETTING(SET_PEN) : 1;
     return plan_wait();
 }
 
+#ifdef HOST_LINK
 uint8_t planner_dwell(uint16_t ms)
 {
     if (ms == 0) {
@@ -410,3 +413,4 @@ uint8_t planner_dwell(uint16_t ms)
     plan.steps = ms;
     return plan_wait();
 }
+#endif

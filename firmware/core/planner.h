@@ -64,6 +64,16 @@ void planner_flush(void);
 #define SET_FEED  2     /* steps/s when a command gives none */
 #define SET_PEN   3     /* settle time after a pen change, ms */
 #define SETTINGS  4
+#ifdef PANEL
+/* Fixed at their defaults (config.h): constants the compiler folds. */
+#define SETTING(k) SETTING_FIXED_##k
+#define SETTING_FIXED_SET_ACCEL 1
+#define SETTING_FIXED_SET_SHAPE RAMP_TRAPEZOID
+#define SETTING_FIXED_SET_FEED  2000
+#define SETTING_FIXED_SET_PEN   150
+#else
+#define SETTING(k) setting[k]
 extern IDATA uint16_t setting[SETTINGS];
+#endif
 
 #endif

@@ -15,6 +15,7 @@
 #include "stepper.h"
 #include "serial.h"
 #include "ramp.h"
+#include "panel.h"
 
 #define STR(x) #x
 #define XSTR(x) STR(x)
@@ -23,6 +24,7 @@ uint8_t alarm_code;
 
 static IDATA char line[LINE_MAX + 1];
 static FAST uint8_t line_len;
+#ifdef HOST_LINK
 static XDATA uint8_t line_s1, line_s2;  /* checksum of the bytes before '*' (see put_eol) */
 
 /* One byte into a Fletcher sum: 8-bit ones' complement additions (an
@@ -34,10 +36,12 @@ static XDATA uint8_t line_s1, line_s2;  /* checksum of the bytes before '*' (see
         (s2) = (uint8_t)((uint8_t)t_ + (uint8_t)(t_ >> 8));               \
     } while (0)
 static FAST uint8_t line_star;    /* index of '*' + 1, 0 if none */
-static FLAG line_long;            /* the line overflowed LINE_MAX */
 static FLAG resend_asked;         /* an rs is outstanding: drop later lines quietly */
 static FLAG machine;              /* the line being executed is in machine form */
 static IDATA uint16_t expected_seq;  /* next sequence number to execute */
+static XDATA uint8_t tx_s1, tx_s2;  /* checksum of the reply line so far */
+#endif
+static FLAG line_long;            /* the line overflowed LINE_MAX */
 
 static IDATA char *FAST cur;      /* parse cursor into line[] */
 static IDATA char *FAST end;      /* end of the command: the line's end, or its '*' */
@@ -48,12 +52,26 @@ static FAST uint8_t nargs;
 #define arg_mag plan_arg
 
 static IDATA uint32_t num;        /* the number put_num prints */
-static XDATA uint8_t tx_s1, tx_s2;  /* checksum of the reply line so far */
+
+#ifdef PANEL
+static FLAG out_lcd;              /* out() writes to the LCD (protocol_lcd) */
+static FAST uint8_t lcd_col;
+#endif
 
 /* Every byte of a reply goes through here, summed for the line's checksum. */
+
 static void out(uint8_t c)
 {
+#ifdef PANEL
+    if (out_lcd) {
+        HAL_LCD_WRITE(c, 1);
+        lcd_col++;
+        return;
+    }
+#endif
+#ifdef HOST_LINK
     FLETCHER_ADD(tx_s1, tx_s2, c);
+#endif
     hal_putc(c);
 }
 
@@ -73,14 +91,16 @@ static void put_num(void);
  * no reply that fails it. */
 static void put_eol(void)
 {
+#ifdef HOST_LINK
     out(' ');
     num = ((uint16_t)tx_s2 << 8) | tx_s1;
     hal_putc('*');
     put_num();
-    hal_putc('\r');
-    hal_putc('\n');
     tx_s1 = 0;
     tx_s2 = 0;
+#endif
+    hal_putc('\r');
+    hal_putc('\n');
 }
 
 static RAMP_ROM uint32_t powers_of_ten[10] = {
@@ -134,32 +154,62 @@ static void put_tag(char tag)
 void protocol_init(void)
 {
     line_len = 0;
+#ifdef HOST_LINK
     line_s1 = 0;
     line_s2 = 0;
     line_star = 0;
-    line_long = 0;
     expected_seq = 0;
     resend_asked = 0;
+#endif
+    line_long = 0;
     alarm_code = 0;
-    put_str(FW_NAME " " FW_VERSION " ready");
+    put_str(FW_NAME " " FW_VERSION FW_EDITION " ready");
     put_eol();
 }
 
-static void report_status(void)
+/* "X<x> Y<y>" of pos_copy */
+static void put_position(void)
 {
-    static IDATA int32_t pos[2];     /* X and Y of one moment */
-    HAL_CRITICAL_BEGIN();
-    pos[0] = POS_READ(pos_x);
-    pos[1] = POS_READ(pos_y);
-    HAL_CRITICAL_END();
-    out('<');
-    put_str(alarm_code ? "Alarm" : st_hold ? "Hold" : st_running ? "Run" : "Idle");
-    put_tag('X');
-    num = (uint32_t)pos[0];
+    out('X');
+    num = (uint32_t)pos_copy[0];
     put_num();
     put_tag('Y');
-    num = (uint32_t)pos[1];
+    num = (uint32_t)pos_copy[1];
     put_num();
+}
+
+#ifdef PANEL
+/* The LCD (display.c): line 1 the position, line 2 the text, both padded
+ * with spaces; the reply printing's own code, its bytes sent to the LCD. */
+
+static void lcd_line(uint8_t address)
+{
+    while (lcd_col < 16) out(' ');
+    HAL_LCD_WRITE(address, 0);
+    lcd_col = 0;
+}
+
+void protocol_lcd(const ROM char *text)
+{
+    stepper_snapshot();
+    out_lcd = 1;
+    lcd_col = 16;
+    lcd_line(0x80);
+    put_position();
+    lcd_line(0xC0);
+    put_str(text);
+    lcd_line(0x80);
+    out_lcd = 0;
+}
+#endif
+
+static void report_status(void)
+{
+    stepper_snapshot();
+    out('<');
+    put_str(alarm_code ? "Alarm" : HOLDING ? "Hold" : st_running ? "Run" : "Idle");
+    out(' ');
+    put_position();
 #ifdef ZAXIS
     put_tag('Z');
     HAL_CRITICAL_BEGIN();
@@ -169,18 +219,27 @@ static void report_status(void)
 #endif
     put_tag('Q');
     put_u16(QUEUE_FREE());
+#ifdef HOST_LINK
     put_tag('N');
     put_u16(expected_seq);
     put_tag('S');
     put_u16(st_seg.seq);
+#endif
     put_tag('P');
     put_u16((st_port & BIT_PEN) ? 1 : 0);
+#ifdef HOST_LINK
     put_tag('U');
     put_u16(st_underruns);
+#endif
     put_tag('A');
     put_u16(alarm_code);
     out('>');
     put_eol();
+}
+
+const ROM char *alarm_text(void)
+{
+    return alarm_code == ALARM_ESTOP ? "alarm estop" : "alarm limit";
 }
 
 void protocol_alarm(uint8_t code)
@@ -190,23 +249,15 @@ void protocol_alarm(uint8_t code)
     planner_flush();
     st_hold = 0;
     alarm_code = code;
-    put_str(code == ALARM_ESTOP ? "[alarm estop]" : "[alarm limit]");
+#ifdef PANEL
+    panel_stop();
+#endif
+    out('[');
+    put_str(alarm_text());
+    out(']');
     put_eol();
 }
 
-static const ROM char *const ROM error_texts[] = {
-    "unknown command",          /* E_UNKNOWN */
-    "checksum",                 /* E_CHECKSUM */
-    "bad number",               /* E_NUMBER */
-    "line too long",            /* E_TOOLONG */
-    "queue full",               /* E_QUEUEFULL */
-    "argument count",           /* E_ARGS */
-    "sequence gap",             /* E_SEQUENCE */
-    "bad arc",                  /* E_ARC */
-    "alarm, reset first",       /* E_ALARM */
-    "busy, wait for idle",      /* E_BUSY */
-    "out of range",             /* E_RANGE */
-};
 
 static uint8_t is_separator(char c)
 {
@@ -246,11 +297,13 @@ static uint8_t parse_num(IDATA uint16_t *mag)
     return sign;
 }
 
+#ifdef HOST_LINK
 /* An unsigned number 0..65535 at the cursor, into arg_mag[0]. */
 static uint8_t parse_u16(void)
 {
     return parse_num(&arg_mag[0]) == 1;
 }
+#endif
 
 /* Parse the arguments after the command letter, up to the end. */
 static uint8_t parse_args(void)
@@ -271,6 +324,16 @@ static uint8_t parse_args(void)
         }
         skip_separators();
     }
+    return E_OK;
+}
+
+/* Why a motion command cannot be queued now, or E_OK. */
+static uint8_t refused(void)
+{
+    if (alarm_code) return E_ALARM;
+#ifdef PANEL
+    if (PANEL_BUSY()) return E_BUSY;      /* the panel is drawing a figure */
+#endif
     return E_OK;
 }
 
@@ -297,7 +360,7 @@ static uint8_t cmd_motion(char cmd)
     while (nargs < (uint8_t)(coords + 2)) {
         arg_mag[nargs++] = 0;                         /* feed, exit default to 0 */
     }
-    if (alarm_code) return E_ALARM;
+    if (refused()) return refused();
     if (cmd == 'L') {
         arg_mag[PLAN_FEED] = arg_mag[2];
         arg_mag[PLAN_EXIT] = arg_mag[3];
@@ -313,6 +376,7 @@ static uint8_t cmd_motion(char cmd)
     return planner_arc(cmd == 'C');
 }
 
+#ifdef HOST_LINK
 /* $0 acceleration divisor, $1 ramp shape, $2 default feed, $3 pen delay. */
 static RAMP_ROM uint16_t setting_min[SETTINGS] = {1, 0, 15, 1};
 static RAMP_ROM uint16_t setting_max[SETTINGS] = {50, RAMP_SHAPES - 1, 65535u, 5000};
@@ -333,7 +397,7 @@ static uint8_t cmd_setting(void)
     if (*cur == 'I' && cur + 1 == end) {
         put_str("[" FW_NAME " " FW_VERSION " Q" XSTR(QUEUE_SIZE) " B" XSTR(RX_SIZE)
                 " R" XSTR(RAMP_R0) " T");     /* both shapes start at RAMP_R0 */
-        put_u16(RAMP_TOP(setting[SET_SHAPE]));
+        put_u16(RAMP_TOP(SETTING(SET_SHAPE)));
         put_str(" A" XSTR(RAMP_ACCEL_TRAP) "]");
         put_eol();
         return E_OK;
@@ -347,6 +411,7 @@ static uint8_t cmd_setting(void)
     setting[key] = arg_mag[0];
     return E_OK;
 }
+#endif
 
 /* The command in cur..end, as command number plan_seq. */
 static uint8_t run_command(void)
@@ -358,9 +423,11 @@ static uint8_t run_command(void)
         return E_OK;                      /* empty line */
     }
     cmd = *cur++;
+#ifdef HOST_LINK
     if (cmd == '$') {
         return cmd_setting();
     }
+#endif
     err = parse_args();
     if (err) return err;
     switch (cmd) {
@@ -372,21 +439,20 @@ static uint8_t run_command(void)
 #endif
         return cmd_motion(cmd);
     case 'P':
+#ifdef HOST_LINK
     case 'D':
+#endif
         if (nargs != 1) return E_ARGS;
         if (arg_neg || (cmd == 'P' && arg_mag[0] > 1)) return E_RANGE;
-        if (alarm_code) return E_ALARM;
-        return cmd == 'P' ? planner_pen((uint8_t)arg_mag[0]) : planner_dwell(arg_mag[0]);
+        if (refused()) return refused();
+#ifdef HOST_LINK
+        if (cmd == 'D') return planner_dwell(arg_mag[0]);
+#endif
+        return planner_pen((uint8_t)arg_mag[0]);
     case 'H':
         if (nargs != 0) return E_ARGS;
         if (st_running || queue_used()) return E_BUSY;
-        HAL_CRITICAL_BEGIN();
-        pos_x = 0;
-        pos_y = 0;
-#ifdef ZAXIS
-        pos_z = 0;
-#endif
-        HAL_CRITICAL_END();
+        stepper_zero();
         return E_OK;
     default:
         return E_UNKNOWN;
@@ -397,10 +463,12 @@ static uint8_t run_command(void)
 static void reply_start(const ROM char *word)
 {
     put_str(word);
+#ifdef HOST_LINK
     if (machine) {
         put_tag('N');
         put_u16(plan_seq);
     }
+#endif
 }
 
 static void reply_ok(void)
@@ -416,11 +484,10 @@ static void reply_err(uint8_t code)
     reply_start("err");
     put_tag('E');
     put_u16(code);
-    out(' ');
-    put_str(error_texts[code - 1]);
     put_eol();
 }
 
+#ifdef HOST_LINK
 static void reply_resend(uint8_t code)
 {
     put_str("rs N");
@@ -431,6 +498,8 @@ static void reply_resend(uint8_t code)
     resend_asked = 1;
 }
 
+#endif
+
 static void execute_line(void)
 {
     uint8_t err;
@@ -439,15 +508,23 @@ static void execute_line(void)
     cur = line;
     end = line + line_len;
     skip_separators();
+#ifdef HOST_LINK
     machine = (*cur == 'N') || line_star;
     if (line_long) {
         if (machine) reply_resend(E_TOOLONG); else reply_err(E_TOOLONG);
         return;
     }
     if (!machine) {
+#else
+    if (line_long) {
+        reply_err(E_TOOLONG);
+        return;
+    }
+#endif
         plan_seq = 0;
         err = run_command();
         if (err) reply_err(err); else reply_ok();
+#ifdef HOST_LINK
         return;
     }
     /* N<seq> <command> *<checksum> */
@@ -484,6 +561,7 @@ static void execute_line(void)
     }
     expected_seq++;
     if (err) reply_err(err); else reply_ok();
+#endif
 }
 
 static void receive_byte(uint8_t c)
@@ -493,9 +571,11 @@ static void receive_byte(uint8_t c)
             execute_line();
         }
         line_len = 0;
+#ifdef HOST_LINK
         line_s1 = 0;
         line_s2 = 0;
         line_star = 0;
+#endif
         line_long = 0;
         return;
     }
@@ -503,11 +583,13 @@ static void receive_byte(uint8_t c)
         line_long = 1;
         return;
     }
+#ifdef HOST_LINK
     if (c == '*' && !line_star) {
         line_star = (uint8_t)(line_len + 1);
     } else if (!line_star) {
         FLETCHER_ADD(line_s1, line_s2, c);
     }
+#endif
     line[line_len++] = (char)c;
 }
 
@@ -518,9 +600,11 @@ void protocol_poll(void)
         HAL_TIMER_HALT();
         rx_tail = rx_flush_to;
         line_len = 0;
+#ifdef HOST_LINK
         line_s1 = 0;
         line_s2 = 0;
         line_star = 0;
+#endif
         line_long = 0;
         if (rt_estop) {
             rt_estop = 0;
@@ -530,14 +614,23 @@ void protocol_poll(void)
             planner_flush();
             st_hold = 0;
             alarm_code = 0;
+#ifdef PANEL
+            panel_stop();
+#endif
             put_str("[reset]");
             put_eol();
         }
     }
+    if (rt_limit) {
+        rt_limit = 0;
+        protocol_alarm(ALARM_LIMIT);
+    }
+#ifdef HOST_LINK
     if (rt_resume) {
         rt_resume = 0;
         stepper_resume();
     }
+#endif
     if (rt_status) {
         rt_status = 0;
         report_status();
@@ -552,7 +645,7 @@ void protocol_poll(void)
         receive_byte(c);
         if (c == '\n') break;             /* let the stepper start between lines */
     }
-    if (!st_running && !st_hold && !alarm_code && queue_used()) {
+    if (!st_running && !HOLDING && !alarm_code && queue_used()) {
         stepper_start();
     }
 }

@@ -5,6 +5,7 @@
 #define PROTOCOL_H
 
 #include "config.h"
+#include "hal.h"
 
 extern uint8_t alarm_code;     /* 0 = no alarm; see ALARM_* */
 #define ALARM_ESTOP 1
@@ -13,5 +14,9 @@ extern uint8_t alarm_code;     /* 0 = no alarm; see ALARM_* */
 void protocol_init(void);      /* print the start-up banner */
 void protocol_poll(void);      /* one pass of the main loop */
 void protocol_alarm(uint8_t code);
+const ROM char *alarm_text(void);  /* "alarm estop" or "alarm limit", while alarm_code is set */
+#ifdef PANEL
+void protocol_lcd(const ROM char *text);   /* rewrite the LCD: position, then text */
+#endif
 
 #endif

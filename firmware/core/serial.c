@@ -7,4 +7,4 @@ FAST volatile uint8_t rx_head, rx_tail;
 FAST volatile uint8_t rx_flush_to;
 volatile FLAG rx_overflow;
 volatile FLAG rx_between_lines = 1;
-volatile FLAG rt_status, rt_resume, rt_estop, rt_reset;
+volatile FLAG rt_status, rt_resume, rt_estop, rt_reset, rt_limit;

@@ -24,6 +24,20 @@ extern volatile FLAG rx_overflow;           /* bytes were lost to a full ring */
 extern volatile FLAG rx_between_lines;      /* no line has started since the last line end */
 /* Real-time requests for the main loop. */
 extern volatile FLAG rt_status, rt_resume, rt_estop, rt_reset;
+extern volatile FLAG rt_limit;              /* the step interrupt met a closed limit switch */
+#ifdef HOST_LINK
+#define RT_HOLD_MATCH(c) ((c) == RT_HOLD || (c) == RT_RESUME)
+#else
+#define RT_HOLD_MATCH(c) 0          /* no feed hold in the panel image (config.h) */
+#endif
+#ifdef PANEL
+extern volatile FLAG rt_star;
+#define RT_STAR_MATCH(c) ((c) == RT_STAR && rx_between_lines)
+#define RT_STAR_SET() (rt_star = 1)
+#else
+#define RT_STAR_MATCH(c) 0
+#define RT_STAR_SET()
+#endif
 
 #define SERIAL_RX_BYTE(c) do {                                              \
     if ((c) == RT_STATUS) {                                                 \
@@ -33,7 +47,9 @@ extern volatile FLAG rt_status, rt_resume, rt_estop, rt_reset;
         rx_flush_to = rx_head;                                              \
         rt_estop = 1;                                                       \
         rx_between_lines = 1;                                               \
-    } else if ((c) == RT_RESET || (c) == RT_HOLD || (c) == RT_RESUME) {     \
+    } else if (RT_STAR_MATCH(c)) {                                          \
+        RT_STAR_SET();                                                      \
+    } else if ((c) == RT_RESET || RT_HOLD_MATCH(c)) {                      \
         if (rx_between_lines) {                                             \
             if ((c) == RT_HOLD) {                                           \
                 st_hold = 1;                                                \

@@ -38,6 +38,7 @@
  * it).  It must call no function (SDCC's support routines included):
  * everything it uses is a macro or INLINE. */
 #include "stepper.h"
+#include "serial.h"
 #include "planner.h"
 #include "ramp.h"
 
@@ -77,7 +78,7 @@ static FAST uint8_t st_moves;         /* arc: the quadrant's arc_moves entry */
 #endif
 #if RAMP_SHAPES > 1
 static FAST uint8_t st_lbase;         /* shape * RAMP_LEVELS: the ramp tables' row */
-#define LBASE_SET() (st_lbase = RAMP_ROW(setting[SET_SHAPE]))
+#define LBASE_SET() (st_lbase = RAMP_ROW(SETTING(SET_SHAPE)))
 #else
 #define st_lbase 0                    /* one shape: its row is the tables */
 #define LBASE_SET()
@@ -163,7 +164,7 @@ static RAMP_ROM uint8_t phase_next[2 * PHASE_SPAN] = {
 #endif
 
 #define HOLD_STEPS(level) \
-    ((uint16_t)((uint8_t)ramp_hold[(uint8_t)(st_lbase + (level))] * (uint8_t)setting[SET_ACCEL]))  /* MUL AB */
+    ((uint16_t)((uint8_t)ramp_hold[(uint8_t)(st_lbase + (level))] * (uint8_t)SETTING(SET_ACCEL)))  /* MUL AB */
 
 /* Steps to the braking point while cruising (st_seg.steps is not kept up
  * meanwhile), n >= 1, as n = 256 * st_cruise_hi + st_cruise_lo with
@@ -190,6 +191,27 @@ void stepper_init(void)
     HAL_PORT_OUT(st_port);
 }
 
+IDATA int32_t pos_copy[2];
+
+void stepper_snapshot(void)
+{
+    do {
+        pos_copy[0] = POS_READ(pos_x);
+        pos_copy[1] = POS_READ(pos_y);
+    } while (pos_copy[0] != POS_READ(pos_x) || pos_copy[1] != POS_READ(pos_y));
+}
+
+void stepper_zero(void)
+{
+    HAL_CRITICAL_BEGIN();
+    pos_x = 0;
+    pos_y = 0;
+#ifdef ZAXIS
+    pos_z = 0;
+#endif
+    HAL_CRITICAL_END();
+}
+
 void stepper_abort(void)
 {
     st_load = 1;
@@ -203,6 +225,9 @@ void stepper_abort(void)
 void stepper_start(void)
 {
     LBASE_SET();
+#ifdef PANEL
+    st_port &= (uint8_t)~(BIT_X_DIR | BIT_Y_DIR);   /* the limit check must not see the last move's directions */
+#endif
     st_load = 1;
     st_pulse_x = 0;
     st_pulse_y = 0;
@@ -218,6 +243,7 @@ void stepper_start(void)
     HAL_TIMER_START(64);
 }
 
+#ifdef HOST_LINK
 void stepper_resume(void)
 {
     st_hold = 0;
@@ -226,6 +252,7 @@ void stepper_resume(void)
         HAL_TIMER_START(64);
     }
 }
+#endif
 
 /* An arc enters quadrant st_seg.quadrant: its moves and its end. */
 INLINE void arc_enter_quadrant(void)
@@ -359,6 +386,15 @@ STEPPER_ISR
     int16_t c;
 
     HAL_TIMER_ADVANCE(st_period);
+#ifdef PANEL
+    /* A closed limit switch at the end the machine is heading for: no more
+     * pulses.  Heading away from it is allowed, to back off after a reset. */
+    if (HAL_LIMITS_CLOSED() & st_port & (BIT_X_DIR | BIT_Y_DIR)) {
+        HAL_TIMER_HALT();
+        rt_limit = 1;
+        return;
+    }
+#endif
 #if defined(DRIVE_PHASE)
     /* The next pattern of the sequence on the windings, both axes at once
      * if the interpolation says so. */
@@ -428,7 +464,7 @@ run:
     if (!st_line) {
         goto not_line;
     }
-    if (st_hold && st_level == 0) {
+    if (HOLDING && st_level == 0) {
         goto pause;
     }
 #if defined(INTERP_DDA)
@@ -495,7 +531,7 @@ cruise_step:
         }
         st_cruise_hi--;
     }
-    if (!st_hold) {
+    if (!HOLDING) {
         return;
     }
     st_seg.steps = st_cruise_to + CRUISE_LEFT();
@@ -512,14 +548,14 @@ cruise_end:
     goto ramp;
 
 not_line:
-    if (st_seg.kind == SEG_DWELL) {
+    if (st_seg.kind == SEG_DWELL) {     /* also a pen's settle time */
         st_period = HAL_PERIOD(DWELL_PERIOD);
         if (--st_seg.steps == 0) {
             st_load = 1;
         }
         return;
     }
-    if (st_hold && st_level == 0) {
+    if (HOLDING && st_level == 0) {
         goto pause;
     }
     /* Arc.  F = x^2 + y^2 - R^2 changes by 2c+1 when a coordinate c becomes
@@ -775,7 +811,7 @@ arc_move_next:
 ramp:
     /* Brake to the exit level in time, else climb to the cruise level. */
     st_cruising = 0;
-    if (st_level && (st_hold || st_level > st_seg.cruise ||
+    if (st_level && (HOLDING || st_level > st_seg.cruise ||
                      (st_level > st_seg.exit && st_seg.steps <= st_brake_at))) {
         /* Brake (or slow down for a feed hold). */
         st_brake_at--;
@@ -785,7 +821,7 @@ ramp:
             st_below -= st_level_left;
             st_stale = 1;
         }
-    } else if (st_level < st_seg.cruise && !st_hold) {
+    } else if (st_level < st_seg.cruise && !HOLDING) {
         /* Climb towards the cruise level. */
         st_brake_at--;
         if (--st_level_left == 0) {

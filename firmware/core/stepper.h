@@ -16,6 +16,11 @@ extern FAST int32_t pos_x, pos_y;
 extern XDATA int32_t pos_z;         /* build option ZAXIS: no internal RAM is left */
 #endif
 #define POS_READ(v) (*(volatile FAST int32_t *)&(v))
+/* X and Y of one moment into pos_copy, without masking the step interrupt
+ * (read until two reads agree): no step waits for it. */
+extern IDATA int32_t pos_copy[2];
+void stepper_snapshot(void);
+void stepper_zero(void);      /* the position becomes the origin (call while still) */
 
 /* The segment being executed, copied from its queue slot and worked on in
  * place (steps: steps left); seq stays that of the last command started. */
@@ -24,6 +29,11 @@ extern FAST segment_t st_seg;
 extern volatile FLAG st_running;              /* timer running or paused mid-queue */
 extern volatile FLAG st_paused;               /* stopped by a feed hold */
 extern volatile FLAG st_hold;                 /* feed hold requested */
+#ifdef HOST_LINK
+#define HOLDING st_hold
+#else
+#define HOLDING 0                             /* no feed hold in the panel image (config.h) */
+#endif
 extern FAST volatile uint8_t st_port;         /* last value written to the port, without step bits */
 extern FAST volatile uint8_t st_level;        /* current ramp level */
 extern IDATA volatile uint16_t st_underruns;  /* queue ran dry while motion should continue */

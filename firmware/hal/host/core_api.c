@@ -9,11 +9,36 @@
 #include "../../core/serial.h"
 #include "../../core/protocol.h"
 #include "../../core/ramp.h"
+#include "../../core/panel.h"
 
 uint16_t host_period;
 uint8_t host_timer_on;
 uint8_t host_port;
 uint8_t host_port2;
+uint8_t host_key = 0xFF, host_limits, host_estop;
+uint8_t host_seg[8];
+
+/* An HD44780 as far as the firmware uses it: set-address commands and data
+ * bytes into two 16-character lines (other commands: clear on 0x01). */
+static char lcd_text[2][17];
+static uint8_t lcd_addr;
+
+void host_lcd_write(uint8_t b, uint8_t rs)
+{
+    if (!rs) {
+        if (b & 0x80) {
+            lcd_addr = b & 0x7F;
+        } else if (b == 0x01) {
+            memset(lcd_text[0], ' ', 16);
+            memset(lcd_text[1], ' ', 16);
+            lcd_addr = 0;
+        }
+        return;
+    }
+    if (lcd_addr < 16) lcd_text[0][lcd_addr] = (char)b;
+    else if (lcd_addr >= 0x40 && lcd_addr < 0x50) lcd_text[1][lcd_addr - 0x40] = (char)b;
+    lcd_addr++;
+}
 
 #define TX_CAP 8192
 static uint8_t tx[TX_CAP];
@@ -51,13 +76,36 @@ void core_reset(void)
     rx_overflow = 0;
     rx_between_lines = 1;
     rt_status = rt_resume = rt_estop = rt_reset = 0;
+#ifndef PANEL
     setting[SET_ACCEL] = 1;
     setting[SET_SHAPE] = RAMP_TRAPEZOID;
     setting[SET_FEED] = 2000;
     setting[SET_PEN] = 150;
+#endif
     stepper_init();
+#ifdef PANEL
+    host_key = 0xFF;
+    host_limits = host_estop = 0;
+    rt_limit = rt_star = 0;
+    memset(lcd_text[0], ' ', 16);
+    memset(lcd_text[1], ' ', 16);
+    lcd_text[0][16] = lcd_text[1][16] = 0;
+    memset(host_seg, 0, sizeof host_seg);
+    lcd_addr = 0;
+    panel_init();
+#endif
     protocol_init();
 }
+
+#ifdef PANEL
+/* The panel's 1 ms tick, the panel's hardware and what it shows. */
+void core_panel_tick(void) { panel_tick(); }
+void core_set_key(int key) { host_key = (uint8_t)key; }
+void core_set_limits(int bits) { host_limits = (uint8_t)bits; }
+void core_set_estop(int on) { host_estop = (uint8_t)on; }
+const char *core_lcd_line(int n) { return lcd_text[n & 1]; }
+int core_segment(int digit) { return host_seg[digit & 7]; }
+#endif
 
 void core_rx(const uint8_t *data, uint32_t n)
 {

@@ -32,6 +32,17 @@ void host_segment_started(uint16_t seq);
 #define HAL_PORT_OUT(v) (host_port = (uint8_t)(v))
 #define HAL_PORT2_OUT(v) (host_port2 = (uint8_t)(v))
 #define HAL_SEGMENT_STARTED(s) host_segment_started(s)
+/* The panel's hardware (panel builds): the caller sets the key held down,
+ * the closed limit switches (as BIT_X_DIR / BIT_Y_DIR) and the e-stop; the
+ * LCD and the 7-segment display are recorded (core_api.c). */
+extern uint8_t host_key, host_limits, host_estop;
+extern uint8_t host_seg[8];
+void host_lcd_write(uint8_t b, uint8_t rs);
+#define HAL_KEY_SCAN() host_key
+#define HAL_LIMITS_CLOSED() host_limits
+#define HAL_ESTOP_ACTIVE() host_estop
+#define HAL_LCD_WRITE(b, rs) host_lcd_write((b), (rs))
+#define HAL_SEG_SHOW(i, pattern) (host_seg[i] = (pattern))
 #define HAL_CRITICAL_BEGIN()
 #define HAL_CRITICAL_END()
 

@@ -32,9 +32,34 @@
 #define HAL_PORT_IDLE 0x80
 #define HAL_PORT_OUT(v) (P1 = (v))
 #else
-/* P1.5-P1.7 are inputs (limit switches, spare): keep them written high. */
+/* P1.5-P1.7 are inputs (X limit, spare, Y limit): keep them written high. */
 #define HAL_PORT_IDLE 0xE0
 #define HAL_PORT_OUT(v) (P1 = (v))
+#endif
+
+#ifdef PANEL
+/* Limit switches close to ground.  P1.5 >> 4 is BIT_X_DIR, P1.7 >> 4 BIT_Y_DIR:
+ * the closed switches as the direction bits that head for them. */
+#define HAL_LIMITS_CLOSED() ((uint8_t)((uint8_t)~P1 >> 4))
+#define HAL_ESTOP_ACTIVE() (!P3_2)          /* e-stop button on P3.2 (INT0), closes to ground */
+/* LCD: data bus P0, RS P3.3, E P3.4, R/W tied low.  7-segment display:
+ * segments on P0 as well (the LCD only takes P0 on E's falling edge), the
+ * digit through a 74HC138 on P3.5-P3.7.  All written a byte at a time
+ * (orl/anl on the port latch), so the simulator's VCD records every edge. */
+#define LCD_RS 0x08
+#define LCD_E  0x10
+#define SEG_SELECT 0xE0
+extern __bit hal_lcd_rs;
+void hal_lcd_write(uint8_t b);
+uint8_t hal_key_scan(void);
+#define HAL_LCD_WRITE(b, rs) do { hal_lcd_rs = (rs); hal_lcd_write(b); } while (0)
+#define HAL_KEY_SCAN() hal_key_scan()
+#define HAL_SEG_SHOW(i, pattern) do {                                       \
+        P0 = 0;                                                             \
+        P3 &= (uint8_t)~SEG_SELECT;                                         \
+        P3 |= (uint8_t)((i) << 5);                                          \
+        P0 = (pattern);                                                     \
+    } while (0)
 #endif
 
 /* Timer 0 as one 16-bit register (TH0:TL0). */

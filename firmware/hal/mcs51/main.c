@@ -5,6 +5,7 @@
 #include "../../core/stepper.h"
 #include "../../core/serial.h"
 #include "../../core/protocol.h"
+#include "../../core/panel.h"
 
 static __xdata uint8_t tx_buf[TX_SIZE];
 static __data volatile uint8_t tx_head, tx_tail;
@@ -44,6 +45,63 @@ void hal_putc(uint8_t c)
     }
 }
 
+#ifdef PANEL
+/* Timer 1 paces the panel when Timer 2 makes the baud rate, and the other
+ * way round: a 1 ms tick, polled by the main loop (no interrupt: the panel's
+ * work may wait, the steps may not). */
+#define TICK_RELOAD ((uint16_t)(0 - 922))   /* 922 machine cycles: 1.0004 ms */
+#ifdef BAUD_115200
+#define TICK_INIT() (TMOD = (TMOD & 0x0F) | 0x10, TR1 = 1)
+#define TICK_DUE() (TF1 && (TF1 = 0, TH1 = (uint8_t)(TICK_RELOAD >> 8), TL1 = (uint8_t)TICK_RELOAD, 1))
+#else
+#define TICK_INIT() (RCAP2H = (uint8_t)(TICK_RELOAD >> 8), RCAP2L = (uint8_t)TICK_RELOAD, TR2 = 1)
+#define TICK_DUE() (TF2 && (TF2 = 0, 1))
+#endif
+
+/* The e-stop button: its falling edge stops the pulses at once, the main
+ * loop raises the alarm (and keeps raising it while the button is held). */
+void estop_isr(void) __interrupt(0)
+{
+    HAL_TIMER_HALT();
+    rx_flush_to = rx_head;
+    rt_estop = 1;
+}
+
+__bit hal_lcd_rs;
+
+void hal_lcd_write(uint8_t b)
+{
+    uint8_t n = 20;
+    if (hal_lcd_rs) P3 |= LCD_RS; else P3 &= (uint8_t)~LCD_RS;
+    P0 = b;
+    P3 |= LCD_E;                /* one machine cycle high: 1.09 us, the LCD needs 0.23 */
+    P3 &= (uint8_t)~LCD_E;      /* the LCD takes the byte on this edge */
+    while (--n) {
+        /* 40 us for the LCD to carry it out (R/W is tied low: no busy flag) */
+    }
+}
+
+/* The bit number of the one zero bit of a nibble, K_NONE if none or several. */
+static const __code uint8_t zero_bit[16] = {
+    K_NONE, K_NONE, K_NONE, K_NONE, K_NONE, K_NONE, K_NONE, 3,
+    K_NONE, K_NONE, K_NONE, 2, K_NONE, 1, 0, K_NONE,
+};
+
+/* Line reversal (seed 000, 3.1.1): rows low, read the columns; columns
+ * low, read the rows.  Row * 4 + column, or K_NONE. */
+uint8_t hal_key_scan(void)
+{
+    uint8_t col, row;
+    P2 = 0xF0;
+    col = zero_bit[P2 >> 4];
+    P2 = 0x0F;
+    row = zero_bit[P2 & 0x0F];
+    P2 = 0xFF;
+    if (col == K_NONE || row == K_NONE) return K_NONE;
+    return (uint8_t)((row << 2) | col);
+}
+#endif
+
 static void uart_init(void)
 {
     SCON = 0x50;                /* mode 1: 8 data bits, receiver on */
@@ -67,9 +125,21 @@ void main(void)
     ET0 = 1;
     uart_init();
     stepper_init();
+#ifdef PANEL
+    IT0 = 1;                      /* e-stop: falling edge */
+    PX0 = 1;
+    EX0 = 1;
+    TICK_INIT();
+    panel_init();
+#endif
     EA = 1;
     protocol_init();
     for (;;) {
         protocol_poll();
+#ifdef PANEL
+        if (TICK_DUE()) {
+            panel_tick();
+        }
+#endif
     }
 }

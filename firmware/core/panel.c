@@ -1,0 +1,229 @@
+/* panel.c - see panel.h.
+ *
+ * A key acts once per press, when it has read the same for DEBOUNCE ticks.
+ * Motion keys act only while the machine stands still (one press, one move);
+ * the reset key acts always, except while a number is typed.  Numbers are
+ * typed on the keys of seed 000 figure 3.3 (digit = column * 4 + row, so the
+ * reset key is the 0): they shift in from the right of the 7-segment
+ * display, and after four digits, or at any other key, the number is
+ * taken. */
+#include "panel.h"
+#include "planner.h"
+#include "stepper.h"
+#include "serial.h"
+#include "protocol.h"
+
+#ifdef PANEL
+
+#define DEBOUNCE   10           /* ms a key must read the same */
+#define JOG_STEPS  800          /* one jog press: 10 mm at 80 steps/mm */
+/* Jog feeds, steps/s, chosen by the faster and slower keys. */
+static const ROM uint16_t jog_feeds[] = {250, 500, 1000, 2000, 4000, 8000};
+#define JOG_FEEDS (sizeof jog_feeds / sizeof jog_feeds[0])
+#define NOT_TYPING 3            /* entry_field when no number is being typed */
+
+/* What each key does (seed 000, figure 3.2): a jog in the MV_* directions
+ * of the low nibble, a figure, or one of the others. */
+#define A_JOG    0x10
+#define A_FIGURE 0x20
+#define A_NONE   0
+#define A_RESET  1
+#define A_CIRCLE 2
+#define A_FASTER 3
+#define A_SLOWER 4
+static const ROM uint8_t key_action[16] = {
+    A_RESET,              A_JOG | MV_XP, A_FIGURE | FIG_CONE,    A_CIRCLE,
+    A_JOG | MV_XP | MV_YP, A_JOG | MV_XN, A_FIGURE | FIG_DIAMOND, A_FIGURE | FIG_STAR,
+    A_FASTER,             A_JOG | MV_YP, A_NONE,                 A_FIGURE | FIG_CAR,
+    A_SLOWER,             A_JOG | MV_YN, A_NONE,                 A_FIGURE | FIG_CAR_REV,
+};
+static const ROM char *const ROM prompts[] = {
+    "Diamond", "Star", "Cone", "Car", "Car reversed",          /* FIG_* */
+    "Centre X?", "Centre Y?", "Radius?",                       /* PROMPT_ENTRY + entry_field */
+    "Ready", "Jog", "Circle", "Out of range",
+};
+#define PROMPT_ENTRY  FIGURES
+#define PROMPT_READY  (FIGURES + 3)
+#define PROMPT_JOG    (FIGURES + 4)
+#define PROMPT_CIRCLE (FIGURES + 5)
+#define PROMPT_RANGE  (FIGURES + 6)
+
+XDATA uint8_t panel_digits[4];
+FAST uint8_t panel_prompt;
+volatile FLAG rt_star;
+static FLAG panel_moving;               /* a key started motion: "Ready" once it ends */
+
+static FAST uint8_t entry_field;        /* the circle's centre X, centre Y, radius: 0..2 */
+static FAST uint8_t key_last, key_count;
+static FAST uint8_t jog;                /* index of the jog feed */
+static FAST uint16_t entry;             /* the number typed */
+static XDATA uint8_t entry_n;           /* digits typed */
+static XDATA uint16_t circle[2];        /* the centre typed */
+
+/* The right four digits of the 7-segment display show v (0..9999). */
+static void show_number(uint16_t v)
+{
+    static const ROM uint16_t tens[4] = {1000, 100, 10, 1};
+    uint8_t k, d;
+    for (k = 0; k < 4; k++) {
+        d = 0;
+        while (v >= tens[k]) {
+            v -= tens[k];
+            d++;
+        }
+        panel_digits[k] = d;
+    }
+}
+
+static void to_menu(void)
+{
+    entry_field = NOT_TYPING;
+    panel_prompt = PROMPT_READY;
+    panel_moving = 0;
+    show_number(jog_feeds[jog]);
+}
+
+void panel_init(void)
+{
+    key_last = K_NONE;
+    jog = 3;                      /* 2000 steps/s */
+    to_menu();
+}
+
+void panel_stop(void)
+{
+    fig_next = 0;
+    to_menu();
+}
+
+static uint8_t motion_idle(void)
+{
+    return !st_running && !queue_used() && !FIGURE_PLAYING() && !alarm_code;
+}
+
+/* plan_arg[k] = target - the pen's coordinate k: 0 if that is no coordinate. */
+static uint8_t to_target(uint8_t k, uint16_t target)
+{
+    int32_t d = (int32_t)target - pos_copy[k];
+    plan_arg[k] = (uint16_t)d;
+    return (int16_t)(d >> 16) == ((int16_t)d >> 15);
+}
+
+/* The motion a key starts while the machine stands still. */
+static void key_motion(uint8_t a)
+{
+    if (a & A_JOG) {
+        plan_arg[0] = plan_arg[1] = 0;
+        if (a & MV_XP) plan_arg[0] = JOG_STEPS;
+        if (a & MV_XN) plan_arg[0] = -JOG_STEPS;
+        if (a & MV_YP) plan_arg[1] = JOG_STEPS;
+        if (a & MV_YN) plan_arg[1] = -JOG_STEPS;
+        plan_arg[PLAN_FEED] = jog_feeds[jog];
+        plan_arg[PLAN_EXIT] = 0;
+        planner_line();
+        a = PROMPT_JOG;
+    } else if (a & A_FIGURE) {
+        a &= 0x0F;
+        figure_start(a);
+    } else {
+        /* The circle of the typed centre and radius (steps from the
+         * origin): the pen up to its rightmost point, one full
+         * counter-clockwise arc. */
+        stepper_snapshot();
+        if (!entry || !to_target(0, circle[0] + entry) || !to_target(1, circle[1])) {
+            panel_prompt = PROMPT_RANGE;
+            return;
+        }
+        planner_pen(0);
+        plan_arg[PLAN_FEED] = 0;
+        plan_arg[PLAN_EXIT] = 0;
+        planner_line();
+        planner_pen(1);
+        plan_arg[0] = 0;
+        plan_arg[1] = 0;
+        plan_arg[2] = 0 - entry;
+        plan_arg[3] = 0;
+        planner_arc(0);
+        planner_pen(0);
+        a = PROMPT_CIRCLE;
+    }
+    panel_prompt = a;
+    panel_moving = 1;
+}
+
+static void key_pressed(uint8_t k)
+{
+    uint8_t a = key_action[k];
+    uint8_t d = (uint8_t)(((k & 3) << 2) | (k >> 2));
+    if (entry_field != NOT_TYPING) {
+        if (d <= 9 && entry_n < 4) {
+            entry = (entry << 3) + (entry << 1) + d;
+            entry_n++;
+            show_number(entry);
+            return;
+        }
+        if (entry_field < 2) circle[entry_field] = entry;
+        if (++entry_field == NOT_TYPING) {
+            to_menu();
+            key_motion(A_CIRCLE);
+            return;
+        }
+    } else if (a == A_RESET) {
+        if (motion_idle()) {              /* standing still: clear the coordinates */
+            stepper_zero();
+        }
+        HAL_TIMER_HALT();                 /* moving: stop at once, as Ctrl-X does */
+        rx_flush_to = rx_head;
+        rt_reset = 1;
+        return;
+    } else {
+        if (!motion_idle()) return;
+        if (a & (A_JOG | A_FIGURE)) {
+            key_motion(a);
+            return;
+        }
+        if (a == A_FASTER && jog < JOG_FEEDS - 1) jog++;
+        if (a == A_SLOWER && jog) jog--;
+        if (a != A_CIRCLE) {
+            to_menu();
+            return;
+        }
+        entry_field = 0;
+    }
+    entry = 0;                            /* the next number, from 0000 */
+    entry_n = 0;
+    show_number(0);
+    panel_prompt = PROMPT_ENTRY + entry_field;
+}
+
+void panel_tick(void)
+{
+    uint8_t k = HAL_KEY_SCAN();
+    if (k != key_last) {
+        key_last = k;
+        key_count = 0;
+    } else if (key_count < DEBOUNCE && ++key_count == DEBOUNCE && k != K_NONE) {
+        key_pressed(k);
+    }
+    if (HAL_ESTOP_ACTIVE() && alarm_code != ALARM_ESTOP && !rt_estop) {
+        HAL_TIMER_HALT();                 /* still held: the alarm comes back after a reset */
+        rx_flush_to = rx_head;
+        rt_estop = 1;
+    }
+    if (rt_star) {
+        rt_star = 0;
+        key_pressed(K_STAR);
+    }
+    figure_poll();
+    if (panel_moving && motion_idle()) {
+        to_menu();
+    }
+    display_tick();
+}
+
+const ROM char *panel_text(void)
+{
+    return alarm_code ? alarm_text() : prompts[panel_prompt];
+}
+
+#endif

@@ -1,0 +1,470 @@
+"""The front-panel image (make -C firmware PANEL=1) in the s51 simulator.
+
+One simulated board is driven as a person would use it: keys pressed by
+pulling the keypad's row and column pins low (the firmware scans the 4x4
+matrix on port 2 by line reversal), the e-stop and limit switches by pulling
+their pins low, the star asked for with a single 'a' on the serial line.
+What it did is read back from a VCD trace of ports 0, 1 and 3
+(tests/vcd_trace.py): the step/direction pulses, the bytes the LCD took, the
+7-segment display's digits.  Checked:
+
+- jog keys move the right axis in the right direction, by the jog distance;
+- the star, the car and the car reversed: every pen-down step within one
+  step of the figure (tools/gen_figures.py, from plotter_shapes.geometry),
+  the pen back at the centre exactly, and the pulse timing the host build's
+  ramp schedule, interval by interval;
+- the LCD shows the coordinates and the prompt; the 7-segment display the
+  number being typed, shifting in from the right; a typed circle is drawn;
+- e-stop and limit switches stop the pulses and raise the alarm on the serial
+  line and on the LCD;
+- the worst step-pulse jitter while the displays refresh (the figure of
+  firmware/README.md).
+
+Skipped when s51 (Debian package sdcc-ucsim) is missing, except on CI.
+"""
+from __future__ import annotations
+
+import math
+import os
+import re
+import shutil
+import subprocess
+import sys
+import time
+from dataclasses import dataclass, field
+
+import pytest
+
+import vcd_trace
+from firmware_build import FIRMWARE, host_library, mcu_image
+from plotter_bridge.firmware_core import FirmwareCore
+
+sys.path.insert(0, str(FIRMWARE / "tools"))
+import s51sim  # noqa: E402
+import gen_figures  # noqa: E402
+
+STATUS = re.compile(r"<(\w+) X(-?\d+) Y(-?\d+) Q(\d+) P(\d+) A(\d+)>")
+JOG = 800                                  # core/panel.c JOG_STEPS
+TICK_PS = 10**12 / 11_059_200              # one clock of the 11.0592 MHz crystal
+
+# Key codes, row * 4 + column (core/panel.h), and the digit keys of seed 000
+# figure 3.3: digit d is row d % 4, column d // 4.
+K_RESET, K_XP, K_CONE, K_CIRCLE = 0, 1, 2, 3
+K_DIAG, K_XN, K_DIAMOND, K_STAR = 4, 5, 6, 7
+K_FASTER, K_YP, K_NONE_A, K_CAR = 8, 9, 10, 11
+K_SLOWER, K_YN, K_CAR_REV = 12, 13, 15
+
+
+def digit_key(d: int) -> int:
+    return (d % 4) * 4 + d // 4
+
+
+def key_pins(code: int) -> int:
+    """Port 2's outside value while key `code` is held: its row and its column low."""
+    return 0xFF & ~(1 << (code // 4)) & ~(1 << (4 + code % 4))
+
+
+@dataclass
+class Mark:
+    """What the board did between two moments of the session."""
+    start: int              # VCD time, ps
+    end: int = 0
+    status: str = ""
+    notes: dict = field(default_factory=dict)
+
+
+class Board:
+    """The simulated board and the person at it."""
+
+    def __init__(self, sim: s51sim.Sim) -> None:
+        self.sim = sim
+        self.serial = b""
+        self.vcd_ticks = 0
+
+    def start_trace(self) -> None:
+        """Start the VCD recording: its times count from here."""
+        self.vcd_ticks = self.sim.ticks()
+        self.sim.vcd_start()
+
+    def now(self) -> int:
+        """Simulation time in VCD units (ps); the simulation must be stopped."""
+        return int((self.sim.ticks() - self.vcd_ticks) * TICK_PS)
+
+    def press(self, code: int) -> int:
+        """Hold the key until the firmware acts on it, then let go; the time it acted."""
+        self.sim.stop()
+        self.sim.cmd(f"set hw port[2] 0x{key_pins(code):02x}")
+        self.sim.run_to(self.sim.sym["_key_pressed"])
+        t = self.now()
+        self.sim.cmd("set hw port[2] 0xff")
+        self.sim.go()
+        return t
+
+    def set_pins(self, port: int, value: int) -> int:
+        self.sim.stop()
+        self.sim.cmd(f"set hw port[{port}] 0x{value:02x}")
+        t = self.now()
+        self.sim.go()
+        return t
+
+    def status(self) -> re.Match:
+        self.sim.write(b"?")
+        text = self.sim.read_until(rb"<[^>]*>\r\n").decode()
+        self.serial += text.encode()
+        m = STATUS.search(text)
+        assert m, text
+        return m
+
+    def wait(self, state: str = "Idle", timeout: float = 120.0) -> re.Match:
+        """Until the status says `state` with the queue empty twice in a row."""
+        deadline = time.time() + timeout
+        seen = 0
+        while time.time() < deadline:
+            s = self.status()
+            if s.group(1) == state and (state != "Idle" or s.group(4) == "6"):
+                seen += 1
+                if seen == 2:
+                    return s
+            else:
+                seen = 0
+            time.sleep(0.05)
+        raise TimeoutError(f"board not {state}: {s.group(0)}")
+
+    def settle(self, seconds: float) -> None:
+        """Let the board run for some simulated time (the LCD refreshes every 100 ms)."""
+        self.sim.stop()
+        target = self.sim.ticks() + int(seconds * 11_059_200)
+        while self.sim.ticks() < target:
+            self.sim.go()
+            time.sleep(0.05)
+            self.sim.stop()
+        self.sim.go()
+
+    def draw(self, key: int | None = None, serial: bytes = b"") -> Mark:
+        """Start something with a key or serial bytes; wait until it is done."""
+        if key is not None:
+            t = self.press(key)
+        else:
+            self.sim.stop()
+            t = self.now()
+            self.sim.go()
+            self.sim.write(serial)
+        mark = Mark(start=t)
+        self.wait("Run")
+        mark.status = self.wait("Idle").group(0)
+        self.sim.stop()
+        mark.end = self.now()
+        self.sim.go()
+        return mark
+
+
+@pytest.fixture(scope="module")
+def image():
+    if shutil.which("s51") is None:
+        reason = "s51 (Debian package sdcc-ucsim) is not installed"
+        if os.environ.get("CI") == "true":
+            pytest.fail(reason + " - required on CI", pytrace=False)
+        pytest.skip(reason)
+    return mcu_image(PANEL="1")
+
+
+@pytest.fixture(scope="module")
+def session(image, tmp_path_factory):
+    """The whole session on one board, each part marked by its start and end."""
+    t0 = time.time()
+    vcd = str(tmp_path_factory.mktemp("s51") / "panel.vcd")
+    marks: dict[str, Mark] = {}
+    with s51sim.Sim(image, vcd=vcd, timeout=120, extra_signals=("sfr[0x80]", "sfr[0xb0]")) as sim:
+        board = Board(sim)
+        sim.go()
+        banner = sim.read_until(rb"\r\n").decode()
+        sim.stop()
+        board.start_trace()
+        sim.go()
+        board.settle(0.2)                       # the LCD's start-up sequence
+        for name, key in (("xp", K_XP), ("yp", K_YP), ("xn", K_XN), ("yn", K_YN), ("diag", K_DIAG)):
+            marks[name] = board.draw(key)
+        board.settle(0.25)
+        sim.stop()
+        marks["after_jogs"] = Mark(start=board.now())
+        sim.go()
+        for name, key in (("faster", K_FASTER), ("slower1", K_SLOWER), ("slower2", K_SLOWER),
+                          ("faster2", K_FASTER)):
+            marks[name] = Mark(start=board.press(key))
+            board.settle(0.05)
+        for name, key in (("star", K_STAR), ("car", K_CAR), ("car_rev", K_CAR_REV)):
+            marks[name] = board.draw(key)
+        # A circle of centre (1234, 800) and radius 200, typed in.
+        marks["circle_key"] = Mark(start=board.press(K_CIRCLE))
+        board.settle(0.25)
+        typed = []
+        for number in ("1234", "0800", "0200"):
+            for d in number:
+                board.press(digit_key(int(d)))
+                board.settle(0.02)
+                sim.stop()
+                typed.append(board.now())
+                sim.go()
+            board.settle(0.25)
+            sim.stop()
+            typed.append(board.now())
+            sim.go()
+            if number != "0200":
+                board.press(K_NONE_A)          # any key takes the number
+        marks["typed"] = Mark(start=typed[0], notes={"times": typed})
+        marks["circle"] = board.draw(K_NONE_A)
+        marks["serial_a"] = board.draw(serial=b"a")
+        # E-stop while the car is drawn.
+        board.press(K_CAR)
+        board.wait("Run")
+        board.settle(0.5)
+        marks["estop"] = Mark(start=board.set_pins(3, 0xFB))
+        marks["estop"].status = board.wait("Alarm").group(0)
+        board.settle(0.25)
+        sim.stop()
+        marks["estop"].end = board.now()
+        sim.go()
+        board.set_pins(3, 0xFF)
+        # The reset key (Ctrl-X would open s51's own serial menu).
+        board.press(K_RESET)
+        marks["estop"].notes["after_reset"] = board.wait("Idle").group(0)
+        # The X limit switch (P1.5) closed: heading for it is stopped, backing off is not.
+        board.set_pins(1, 0xDF)
+        marks["limit"] = Mark(start=board.press(K_XN))
+        marks["limit"].status = board.wait("Alarm").group(0)
+        board.press(K_RESET)
+        board.wait("Idle")
+        marks["back_off"] = board.draw(K_XP)
+        board.set_pins(1, 0xFF)
+        # Jitter: a long line at a high feed, the displays refreshing meanwhile.
+        marks["fast"] = board.draw(serial=b"L 12000 0 9000\n")
+        sim.stop()
+        sim.vcd_stop()
+        ram = (sim.int32("_pos_x"), sim.int32("_pos_y"))
+        serial = board.serial + sim._ser
+    print(f"panel session: {time.time() - t0:.0f} s")
+    events = s51sim.read_vcd(vcd)
+    return dict(banner=banner, marks=marks, events=events, ram=ram, serial=serial.decode(errors="replace"))
+
+
+def steps_between(session, mark: Mark) -> list:
+    return [s for s in vcd_trace.steps(session["events"]["P1"]) if mark.start <= s.t <= (mark.end or math.inf)]
+
+
+def walk(items) -> tuple[int, int]:
+    x = y = 0
+    for s in items:
+        if isinstance(s, vcd_trace.Step):
+            x, y = x + s.dx, y + s.dy
+    return x, y
+
+
+def test_banner_says_panel(session):
+    assert session["banner"].startswith("PLOTTER 8051 1.0 panel ready")
+
+
+def test_jog_keys_move_the_right_axis(session):
+    m = session["marks"]
+    want = {"xp": (JOG, 0), "yp": (0, JOG), "xn": (-JOG, 0), "yn": (0, -JOG), "diag": (JOG, JOG)}
+    for name, (dx, dy) in want.items():
+        steps = [s for s in steps_between(session, m[name]) if isinstance(s, vcd_trace.Step)]
+        assert walk(steps) == (dx, dy), name
+        assert all((s.dx == 0 or s.dx == (1 if dx > 0 else -1)) and
+                   (s.dy == 0 or s.dy == (1 if dy > 0 else -1)) for s in steps), name
+    assert STATUS.search(m["diag"].status).group(2, 3) == (str(JOG), str(JOG))
+
+
+def test_lcd_shows_position_and_prompt(session):
+    m = session["marks"]
+    writes = vcd_trace.lcd_writes(session["events"]["P0"], session["events"]["P3"])
+    line1, line2 = vcd_trace.lcd_screen(writes, until=m["after_jogs"].start)
+    assert line1.rstrip() == f"X{JOG} Y{JOG}"
+    assert line2.rstrip() == "Ready"
+    assert vcd_trace.lcd_screen(writes, until=m["estop"].end)[1].rstrip() == "alarm estop"
+
+
+def test_seven_segment_shows_jog_feed_and_typed_digits(session):
+    m = session["marks"]
+    p0, p3 = session["events"]["P0"], session["events"]["P3"]
+    shown = lambda t: vcd_trace.seven_segment(p0, p3, until=t)   # noqa: E731
+    assert shown(m["after_jogs"].start) == "    2000"
+    assert shown(m["slower1"].start) == "    4000"          # after "faster"
+    assert shown(m["faster2"].start) == "    1000"          # after "slower" twice
+    times = m["typed"].notes["times"]
+    assert [shown(t) for t in times[:4]] == ["    0001", "    0012", "    0123", "    1234"]
+    assert shown(times[5 + 4]) == "    0800" and shown(times[10 + 4]) == "    0200"
+
+
+def figure_path_ok(steps, commands) -> None:
+    """Every step within one step of the figure; pen down exactly on its strokes."""
+    x = y = 0
+    pen = False
+    segs = []
+    for kind, *a in commands:
+        if kind == "up":
+            pen = False
+        elif kind == "down":
+            pen = True
+        elif kind == "line":
+            segs.append((pen, "line", (x, y), (x + a[0], y + a[1]), None))
+            x, y = x + a[0], y + a[1]
+        elif kind in ("cw", "ccw"):
+            segs.append((pen, "arc", (x, y), (x + a[0], y + a[1]), (x + a[2], y + a[3])))
+            x, y = x + a[0], y + a[1]
+
+    def dist(p, seg):
+        _, kind, a, b, c = seg
+        if kind == "arc":
+            return abs(math.dist(p, c) - math.dist(a, c))
+        ax, ay, bx, by = *a, *b
+        L2 = (bx - ax) ** 2 + (by - ay) ** 2
+        t = 0 if L2 == 0 else max(0.0, min(1.0, ((p[0] - ax) * (bx - ax) + (p[1] - ay) * (by - ay)) / L2))
+        return math.dist(p, (ax + t * (bx - ax), ay + t * (by - ay)))
+
+    x = y = 0
+    pen = False
+    worst = 0.0
+    for s in steps:
+        if isinstance(s, vcd_trace.Pen):
+            pen = s.down
+            continue
+        x, y = x + s.dx, y + s.dy
+        d = min(dist((x, y), seg) for seg in segs if seg[0] == pen)
+        worst = max(worst, d)
+    assert worst <= 1.0, worst
+    assert (x, y) == (0, 0)                        # back at the centre
+
+
+def host_schedule(commands) -> list[float]:
+    """The host build's cycles between steps for the same commands (typed lines)."""
+    lines = []
+    for kind, *a in commands:
+        if kind in ("up", "down"):
+            lines.append(f"P {1 if kind == 'down' else 0}")
+        elif kind == "line":
+            lines.append(f"L {a[0]} {a[1]}")
+        elif kind in ("cw", "ccw"):
+            lines.append(f"{'C' if kind == 'cw' else 'A'} {a[0]} {a[1]} {a[2]} {a[3]}")
+    core = FirmwareCore(host_library(PANEL="1"))
+    try:
+        out, since = [], 0
+        while True:
+            while lines and core.queue_free > 0:
+                core.receive(lines.pop(0).encode() + b"\n")
+                core.poll(2)
+            core.poll()
+            if not core.timer_running() and not lines:
+                break
+            since += core.period()
+            if core.tick():
+                out.append(since)
+                since = 0
+        return out
+    finally:
+        core.close()
+
+
+@pytest.mark.parametrize("name,figure", [("star", "FIG_STAR"), ("car", "FIG_CAR"), ("car_rev", "FIG_CAR_REV")])
+def test_figure_path_and_ramp(session, name, figure):
+    commands = gen_figures.all_figures()[figure]
+    got = steps_between(session, session["marks"][name])
+    figure_path_ok(got, commands)
+    want = host_schedule(commands)
+    g = [s.cycles for s in got if isinstance(s, vcd_trace.Step)]
+    assert len(g) == len(want)
+    deviations = sorted(abs(a - b) for a, b in zip(g[1:], want[1:]))
+    assert deviations[-1] <= 32, deviations[-1]
+    assert deviations[len(deviations) // 2] <= 3
+
+
+def test_car_reversed_is_the_car_backwards(session):
+    m = session["marks"]
+    fwd = [(s.dx, s.dy) for s in steps_between(session, m["car"]) if isinstance(s, vcd_trace.Step)]
+    rev = [(s.dx, s.dy) for s in steps_between(session, m["car_rev"]) if isinstance(s, vcd_trace.Step)]
+    assert len(fwd) == len(rev)
+    assert fwd != rev
+
+
+def test_typed_circle_is_drawn(session):
+    m = session["marks"]
+    steps = steps_between(session, m["circle"])
+    start = (JOG, JOG)                             # where the jogs left the pen
+    x, y = start
+    pen = False
+    on_circle = 0
+    for s in steps:
+        if isinstance(s, vcd_trace.Pen):
+            pen = s.down
+            continue
+        x, y = x + s.dx, y + s.dy
+        if pen:
+            assert abs(math.dist((x, y), (1234, 800)) - 200) <= 1.0
+            on_circle += 1
+    assert on_circle >= 4 * 2 * 200 - 8            # a whole circle of radius 200
+    s = STATUS.search(m["circle"].status)
+    assert (int(s.group(2)), int(s.group(3))) == (1434, 800)
+
+
+def test_serial_a_draws_the_star(session):
+    got = steps_between(session, session["marks"]["serial_a"])
+    figure_path_ok(got, gen_figures.all_figures()["FIG_STAR"])
+
+
+def test_estop_stops_pulses_and_raises_the_alarm(session):
+    m = session["marks"]["estop"]
+    after = [s for s in vcd_trace.steps(session["events"]["P1"])
+             if isinstance(s, vcd_trace.Step) and m.start < s.t <= m.end]
+    # at most the pulse already under way when the pin fell
+    assert len(after) <= 1
+    assert STATUS.search(m.status).group(6) == "1"
+    assert "[alarm estop]" in session["serial"]
+    assert STATUS.search(m.notes["after_reset"]).group(6) == "0"
+
+
+def test_limit_switch_stops_the_axis_heading_for_it(session):
+    m = session["marks"]
+    into = [s for s in steps_between(session, Mark(m["limit"].start, m["back_off"].start))
+            if isinstance(s, vcd_trace.Step)]
+    assert into == []
+    assert STATUS.search(m["limit"].status).group(6) == "2"
+    assert "[alarm limit]" in session["serial"]
+    away = [s for s in steps_between(session, m["back_off"]) if isinstance(s, vcd_trace.Step)]
+    assert walk(away) == (JOG, 0)
+
+
+def test_step_jitter_with_the_displays_running(session, record_property):
+    """Cruising at 9,000 steps/s, about the fastest the step interrupt of this
+    image keeps up with (its cruise step takes some 90 cycles of the 102),
+    while the LCD, the 7-segment display and the keypad scan run: each pulse
+    against the host build's schedule for the same line, over the cruise.
+    The spread of those differences is the jitter; it must stay below 10% of
+    the period.  (Climbing the ramp, a step that changes level takes longer
+    than one such period: the last pulses of the climb come some 60 cycles
+    late, and the first dozen of the cruise catch up; the last cruise pulse
+    waits for the step that starts braking.  Those are the ramp's, not the
+    displays', and are left out.)"""
+    got = [s for s in steps_between(session, session["marks"]["fast"]) if isinstance(s, vcd_trace.Step)]
+    core = FirmwareCore(host_library(PANEL="1"))
+    try:
+        core.receive(b"L 12000 0 9000\n")
+        core.poll(3)
+        want = [s.cycles for s in core.run_steps()]
+    finally:
+        core.close()
+    assert len(got) == len(want) == 12000
+    period = want[len(want) // 2]
+    cruise = [k for k, w in enumerate(want) if w == period]
+    first, last = cruise[0], cruise[-1]
+    assert cruise == list(range(first, last + 1)) and len(cruise) > 5000
+    t_board = t_host = 0.0
+    offsets = []
+    first += 16
+    for g, w in zip(got[first + 1:last], want[first + 1:last]):
+        t_board += g.cycles
+        t_host += w
+        offsets.append(t_board - t_host)
+    jitter = max(offsets) - min(offsets)
+    record_property("jitter_cycles", jitter)
+    print(f"step jitter cruising at 9000 steps/s: {jitter:.1f} machine cycles of a {period}-cycle period"
+          f" ({100 * jitter / period:.1f}%), over {len(offsets)} pulses")
+    assert jitter < 0.10 * period
