@@ -1,0 +1,323 @@
+"""The front panel's logic in the host build of the panel image
+(firmware/build/panel/libplotter_core.so): the same C as the 8051 image, with
+the keypad, LCD, 7-segment display, e-stop and limit switches played by the
+test (hal/host).  Fast and exhaustive where the s51 test
+(test_firmware_panel.py) is faithful to the pins: every key of the seed's
+map, the digit keys, every figure against its geometry.
+"""
+from __future__ import annotations
+
+import ctypes
+import math
+import re
+import sys
+
+import pytest
+
+from firmware_build import FIRMWARE, host_library
+from plotter_bridge.firmware_core import FirmwareCore
+
+sys.path.insert(0, str(FIRMWARE / "tools"))
+import gen_figures  # noqa: E402
+
+from plotter_shapes import geometry  # noqa: E402
+
+JOG = 800
+NO_KEY = 0xFF
+SEGMENTS = {0x3F: "0", 0x06: "1", 0x5B: "2", 0x4F: "3", 0x66: "4", 0x6D: "5",
+            0x7D: "6", 0x07: "7", 0x7F: "8", 0x6F: "9", 0x00: " "}
+K_RESET, K_XP, K_CONE, K_CIRCLE, K_DIAG, K_XN, K_DIAMOND, K_STAR = 0, 1, 2, 3, 4, 5, 6, 7
+K_FASTER, K_YP, K_CAR, K_SLOWER, K_YN, K_CAR_REV = 8, 9, 11, 12, 13, 15
+BIT_X_DIR, BIT_Y_DIR = 0x02, 0x08           # the closed limit switches, as the direction bits
+
+
+class Panel:
+    """The panel image's core with its 1 ms tick, keys and displays."""
+
+    def __init__(self) -> None:
+        self.core = FirmwareCore(host_library(PANEL="1"))
+        lib = self.core._lib
+        lib.core_lcd_line.restype = ctypes.c_char_p
+        self.lib = lib
+        self.trace: list[tuple[int, int, bool]] = []     # (x, y, pen) after each step
+        self.due: int | None = None                      # cycles to the next step interrupt
+        self.tick(50)
+
+    def close(self) -> None:
+        self.core.close()
+
+    def tick(self, ms: int = 1) -> None:
+        """ms of simulated time: the panel tick every millisecond (922
+        machine cycles), the main loop, and the step interrupts that fall due."""
+        for _ in range(ms):
+            self.lib.core_panel_tick()
+            self.core.poll()
+            budget = 922
+            while self.core.timer_running():
+                if self.due is None:
+                    self.due = self.core.period()
+                if self.due > budget:
+                    self.due -= budget
+                    break
+                budget -= self.due
+                before = self.core.position
+                self.core.tick()
+                after = self.core.position
+                if after != before:
+                    self.trace.append((*after, self.core.pen_down))
+                self.due = self.core.period() if self.core.timer_running() else None
+                self.core.poll()
+            else:
+                self.due = None
+
+    def press(self, key: int, hold: int = 20) -> None:
+        self.lib.core_set_key(key)
+        self.tick(hold)
+        self.lib.core_set_key(NO_KEY)
+        self.tick(20)
+
+    def run(self, ms: int = 3000) -> None:
+        self.tick(ms)
+
+    def lcd(self) -> tuple[str, str]:
+        self.tick(110)                       # one LCD refresh
+        return (self.lib.core_lcd_line(0).decode().rstrip(), self.lib.core_lcd_line(1).decode().rstrip())
+
+    def digits(self) -> str:
+        return "".join(SEGMENTS[self.lib.core_segment(k)] for k in range(8))
+
+    @property
+    def position(self) -> tuple[int, int]:
+        return self.core.position
+
+
+@pytest.fixture
+def panel():
+    p = Panel()
+    yield p
+    p.close()
+
+
+def digit_key(d: int) -> int:
+    return (d % 4) * 4 + d // 4
+
+
+def test_start_screen(panel):
+    assert panel.core.transmitted().startswith(b"PLOTTER 8051 1.0 panel ready")
+    assert panel.lcd() == ("X0 Y0", "Ready")
+    assert panel.digits() == "    2000"              # the jog feed
+
+
+@pytest.mark.parametrize("key,move", [(K_XP, (JOG, 0)), (K_XN, (-JOG, 0)), (K_YP, (0, JOG)),
+                                      (K_YN, (0, -JOG)), (K_DIAG, (JOG, JOG))])
+def test_jog_keys(panel, key, move):
+    panel.press(key)
+    panel.run(2000)
+    assert panel.position == move
+    assert panel.lcd() == (f"X{move[0]} Y{move[1]}", "Ready")
+
+
+def test_jog_feed_keys_double_and_halve_within_limits(panel):
+    shown = []
+    for key in [K_FASTER] * 3 + [K_SLOWER] * 7:
+        panel.press(key)
+        shown.append(panel.digits().strip())
+    assert shown == ["4000", "8000", "8000", "4000", "2000", "1000", "0500", "0250", "0250", "0250"]
+
+
+def test_a_key_held_acts_once(panel):
+    panel.press(K_XP, hold=500)
+    panel.run(2000)
+    assert panel.position == (JOG, 0)
+
+
+def test_keys_without_function_do_nothing(panel):
+    for key in (10, 14):
+        panel.press(key)
+    panel.run(500)
+    assert panel.position == (0, 0) and panel.lcd()[1] == "Ready"
+
+
+def test_digits_shift_in_from_the_right(panel):
+    panel.press(K_CIRCLE)
+    assert panel.lcd()[1] == "Centre X?"
+    assert panel.digits() == "    0000"
+    seen = []
+    for d in (1, 2, 3, 4):
+        panel.press(digit_key(d))
+        seen.append(panel.digits())
+    assert seen == ["    0001", "    0012", "    0123", "    1234"]
+    panel.press(digit_key(9))                          # a fifth key takes the number
+    assert panel.lcd()[1] == "Centre Y?"
+
+
+def type_circle(panel, cx: str, cy: str, r: str) -> None:
+    panel.press(K_CIRCLE)
+    for number in (cx, cy, r):
+        for d in number:
+            panel.press(digit_key(int(d)))
+        panel.press(10)
+
+
+def test_typed_circle(panel):
+    type_circle(panel, "0500", "0400", "0300")
+    panel.run(8000)
+    down = [(x, y) for x, y, pen in panel.trace if pen]
+    assert len(down) >= 8 * 300 - 8
+    assert all(abs(math.dist(p, (500, 400)) - 300) <= 1.0 for p in down)
+    assert panel.position == (800, 400)
+    assert panel.lcd()[1] == "Ready"
+
+
+def test_circle_out_of_reach_is_refused(panel):
+    panel.core.receive(b"L -30000 0 12000\n")    # the pen far to the left
+    panel.run(5000)
+    type_circle(panel, "9999", "0000", "9999")   # 39998 steps to its right
+    panel.run(100)
+    assert panel.lcd()[1] == "Out of range"
+    assert panel.position == (-30000, 0)
+
+
+def test_reset_key_clears_position_when_still_and_stops_motion(panel):
+    panel.press(K_XP)
+    panel.run(2000)
+    panel.press(K_RESET)
+    assert panel.position == (0, 0)
+    panel.press(K_STAR)
+    panel.tick(400)                               # the star has begun
+    moved = len(panel.trace)
+    panel.press(K_RESET)
+    panel.run(2000)
+    assert len(panel.trace) - moved < 50          # stopped at once
+    assert b"[reset]" in panel.core.transmitted()
+    assert panel.lcd()[1] == "Ready"
+
+
+def figure_steps_ok(trace, commands, start=(0, 0)) -> None:
+    """Every step of the trace within one step of the figure's segments of
+    the same pen state, and the end back at the start."""
+    x, y = start
+    pen = False
+    segs = []
+    for kind, *a in commands:
+        if kind in ("up", "down"):
+            pen = kind == "down"
+            continue
+        if kind == "end":
+            break
+        end = (x + a[0], y + a[1])
+        centre = (x + a[2], y + a[3]) if kind in ("cw", "ccw") else None
+        segs.append((pen, (x, y), end, centre))
+        x, y = end
+
+    def dist(p, seg):
+        _, a, b, c = seg
+        if c is not None:
+            return abs(math.dist(p, c) - math.dist(a, c))
+        L2 = (b[0] - a[0]) ** 2 + (b[1] - a[1]) ** 2
+        t = max(0.0, min(1.0, ((p[0] - a[0]) * (b[0] - a[0]) + (p[1] - a[1]) * (b[1] - a[1])) / L2))
+        return math.dist(p, (a[0] + t * (b[0] - a[0]), a[1] + t * (b[1] - a[1])))
+
+    for x, y, pen in trace:
+        assert min(dist((x, y), s) for s in segs if s[0] == pen) <= 1.0, (x, y, pen)
+    assert trace[-1][:2] == start
+
+
+@pytest.mark.parametrize("key,figure", [(K_DIAMOND, "FIG_DIAMOND"), (K_STAR, "FIG_STAR"), (K_CONE, "FIG_CONE"),
+                                        (K_CAR, "FIG_CAR"), (K_CAR_REV, "FIG_CAR_REV")])
+def test_figure_keys_draw_their_figures(panel, key, figure):
+    panel.press(K_XP)                             # not at the origin: figures are about the pen
+    panel.run(2000)
+    start = panel.position
+    panel.trace.clear()
+    panel.press(key)
+    panel.run(40000)
+    figure_steps_ok(panel.trace, gen_figures.all_figures()[figure], start)
+    assert panel.lcd()[1] == "Ready"
+
+
+def test_serial_a_draws_the_star_but_only_between_lines(panel):
+    panel.core.receive(b"a")
+    panel.run(30000)
+    figure_steps_ok(panel.trace, gen_figures.all_figures()["FIG_STAR"])
+    panel.trace.clear()
+    panel.core.receive(b"L 10 a\n")               # inside a line: part of it, a bad number
+    panel.run(500)
+    assert panel.trace == [] and b"err E3" in panel.core.transmitted()
+
+
+def test_serial_motion_is_refused_while_a_figure_is_drawn(panel):
+    panel.press(K_STAR)
+    panel.tick(300)
+    panel.core.transmitted()
+    panel.core.receive(b"L 100 0\n")
+    panel.tick(5)
+    assert b"err E10" in panel.core.transmitted()
+
+
+def test_figures_are_the_host_shapes_within_the_grid(panel):
+    """The ROM figures are plotter_shapes.geometry's, rounded to the grid."""
+    half = gen_figures.GRID / 2
+    for name, make in gen_figures.FIGURES:
+        fig = make()
+        commands = gen_figures.all_figures()[name]
+        x = y = 0
+        ends = []
+        for kind, *a in commands:
+            if kind not in ("up", "down", "end"):
+                x, y = x + a[0], y + a[1]
+                ends.append((x, y))
+        want = [(s.end[0] * gen_figures.STEPS_PER_MM, s.end[1] * gen_figures.STEPS_PER_MM)
+                for st in fig.strokes for s in st.segments]
+        for p in want:
+            assert min(math.dist(p, e) for e in ends) <= half * math.sqrt(2), (name, p)
+    assert isinstance(geometry.Arc, type)
+
+
+def test_estop_pin_alarm_until_released_and_reset(panel):
+    panel.press(K_CAR)
+    panel.tick(500)
+    panel.lib.core_set_estop(1)
+    panel.tick(2)
+    n = len(panel.trace)
+    panel.run(1000)
+    assert len(panel.trace) == n
+    assert panel.core.alarm == 1
+    assert b"[alarm estop]" in panel.core.transmitted()
+    assert panel.lcd()[1] == "alarm estop"
+    panel.press(K_RESET)                          # still held: the alarm comes back
+    panel.tick(5)
+    assert panel.core.alarm == 1
+    panel.lib.core_set_estop(0)
+    panel.press(K_RESET)
+    assert panel.core.alarm == 0 and panel.lcd()[1] == "Ready"
+    panel.press(K_XP)
+    panel.run(2000)
+    assert len(panel.trace) == n + JOG
+
+
+def test_limit_switch_stops_only_the_move_towards_it(panel):
+    panel.lib.core_set_limits(BIT_X_DIR)          # the -X switch closed
+    panel.press(K_XN)
+    panel.run(1000)
+    assert panel.position == (0, 0) and panel.core.alarm == 2
+    assert b"[alarm limit]" in panel.core.transmitted()
+    assert panel.lcd()[1] == "alarm limit"
+    panel.press(K_RESET)
+    panel.press(K_XP)                             # away from it
+    panel.run(2000)
+    assert panel.position == (JOG, 0) and panel.core.alarm == 0
+    panel.lib.core_set_limits(BIT_Y_DIR)
+    panel.press(K_DIAG)                           # +X +Y: not towards -Y
+    panel.run(2000)
+    assert panel.position == (2 * JOG, JOG)
+
+
+def test_status_of_the_panel_image(panel):
+    panel.core.receive(b"?")
+    panel.tick(2)
+    assert panel.core.transmitted().endswith(b"<Idle X0 Y0 Q6 P0 A0>\r\n")
+    panel.core.receive(b"N1 L 10 0 *123\n")       # no machine lines in this image
+    panel.tick(2)
+    assert re.match(rb"err E\d+\r\n$", panel.core.transmitted())
+    assert panel.position == (0, 0)
