@@ -242,9 +242,13 @@ def session(image, tmp_path_factory):
         sim.vcd_stop()
         ram = (sim.int32("_pos_x"), sim.int32("_pos_y"))
         serial = board.serial + sim._ser
+        max_sp = sim.max_sp()
     print(f"panel session: {time.time() - t0:.0f} s")
     events = s51sim.read_vcd(vcd)
-    return dict(banner=banner, marks=marks, events=events, ram=ram, serial=serial.decode(errors="replace"))
+    stack_start = int(re.search(r"Stack starts at: 0x([0-9a-fA-F]+)",
+                                image.with_suffix(".mem").read_text()).group(1), 16)
+    return dict(banner=banner, marks=marks, events=events, ram=ram, serial=serial.decode(errors="replace"),
+                stack=max_sp - stack_start + 1)
 
 
 def steps_between(session, mark: Mark) -> list:
@@ -261,6 +265,12 @@ def walk(items) -> tuple[int, int]:
 
 def test_banner_says_panel(session):
     assert session["banner"].startswith("PLOTTER 8051 1.0 panel ready")
+
+
+def test_stack_stays_within_its_reserve(session):
+    """tools/size.py keeps 40 bytes for the stack: the panel's calls from the
+    main loop, with the UART and step interrupts on top, stay inside."""
+    assert session["stack"] <= 40, session["stack"]
 
 
 def test_jog_keys_move_the_right_axis(session):
