@@ -91,6 +91,8 @@ def test_reply_parsing():
     assert parse_reply(signed("ok Q6")) == Ok(None, 6)
     assert parse_reply(signed("rs N9 E2")) == Resend(9, 2)
     assert parse_reply(signed("err N4 E8 bad arc")) == Err(4, 8, "bad arc")
+    assert parse_reply(signed("err N4 E8")) == Err(4, 8, "bad arc")      # as the board sends it
+    assert parse_reply(signed("err E99")) == Err(None, 99, "unknown error")
     assert parse_reply(signed("<Run X12 Y-3 Q4 N18 S17 P1 U0 A0>")) == Status("Run", 12, -3, 4, 18, 17, True, 0, 0)
     assert parse_reply(signed("PLOTTER 8051 1.0 ready")) == Banner("PLOTTER 8051 1.0 ready")
     assert parse_reply("ok N12 Q5") is None                   # no checksum: not trusted

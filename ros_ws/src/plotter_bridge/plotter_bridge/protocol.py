@@ -157,7 +157,10 @@ def parse_reply(raw: str) -> Optional[Reply]:
         return Resend(int(m.group(1)), int(m.group(2)))
     m = _ERR.match(line)
     if m:
-        return Err(int(m.group(1)) if m.group(1) else None, int(m.group(2)), m.group(3) or "")
+        code = int(m.group(2))
+        # The board sends the code only (8 KB of flash); the text is ours.
+        return Err(int(m.group(1)) if m.group(1) else None, code,
+                   m.group(3) or ERROR_TEXT.get(code, "unknown error"))
     if line.startswith(BANNER_PREFIX) and line.endswith("ready"):
         return Banner(line)
     if line.startswith("[") and line.endswith("]") or line.startswith("$"):
