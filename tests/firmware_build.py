@@ -4,6 +4,8 @@ Without arguments: the default build, firmware/build/.  With build options
 (firmware/Makefile, e.g. INTERP="dda", DRIVE="phase3" or ZAXIS="1"), the
 build of those options in its own directory, firmware/build/<options>/.
 """
+import os
+import shutil
 import subprocess
 from functools import lru_cache
 from pathlib import Path
@@ -49,3 +51,14 @@ def host_library(**options) -> Path:
 def mcu_image(**options) -> Path:
     """The 8051 image's base path (plotter, without .ihx) of the given build options."""
     return _build("plotter.ihx", tuple(sorted(options.items()))).with_suffix("")
+
+
+def require_s51() -> None:
+    """Skip the calling test when s51 (Debian package sdcc-ucsim) is missing;
+    on CI (CI=true) that is a failure."""
+    import pytest
+    if shutil.which("s51") is None:
+        reason = "s51 (Debian package sdcc-ucsim) is not installed"
+        if os.environ.get("CI") == "true":
+            pytest.fail(reason + " - required on CI", pytrace=False)
+        pytest.skip(reason)

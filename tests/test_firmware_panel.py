@@ -25,9 +25,7 @@ Skipped when s51 (Debian package sdcc-ucsim) is missing, except on CI.
 from __future__ import annotations
 
 import math
-import os
 import re
-import shutil
 import subprocess
 import sys
 import time
@@ -36,7 +34,7 @@ from dataclasses import dataclass, field
 import pytest
 
 import vcd_trace
-from firmware_build import FIRMWARE, host_library, mcu_image
+from firmware_build import FIRMWARE, host_library, mcu_image, require_s51
 from plotter_bridge.firmware_core import FirmwareCore
 
 sys.path.insert(0, str(FIRMWARE / "tools"))
@@ -160,11 +158,7 @@ class Board:
 
 @pytest.fixture(scope="module")
 def image():
-    if shutil.which("s51") is None:
-        reason = "s51 (Debian package sdcc-ucsim) is not installed"
-        if os.environ.get("CI") == "true":
-            pytest.fail(reason + " - required on CI", pytrace=False)
-        pytest.skip(reason)
+    require_s51()
     return mcu_image(PANEL="1")
 
 
@@ -255,6 +249,18 @@ def steps_between(session, mark: Mark) -> list:
     return [s for s in vcd_trace.steps(session["events"]["P1"]) if mark.start <= s.t <= (mark.end or math.inf)]
 
 
+def pen_walk(steps, start=(0, 0)):
+    """(x, y, pen down) after each step."""
+    x, y = start
+    pen = False
+    for s in steps:
+        if isinstance(s, vcd_trace.Pen):
+            pen = s.down
+            continue
+        x, y = x + s.dx, y + s.dy
+        yield x, y, pen
+
+
 def walk(items) -> tuple[int, int]:
     x = y = 0
     for s in items:
@@ -331,16 +337,9 @@ def figure_path_ok(steps, commands) -> None:
         t = 0 if L2 == 0 else max(0.0, min(1.0, ((p[0] - ax) * (bx - ax) + (p[1] - ay) * (by - ay)) / L2))
         return math.dist(p, (ax + t * (bx - ax), ay + t * (by - ay)))
 
-    x = y = 0
-    pen = False
     worst = 0.0
-    for s in steps:
-        if isinstance(s, vcd_trace.Pen):
-            pen = s.down
-            continue
-        x, y = x + s.dx, y + s.dy
-        d = min(dist((x, y), seg) for seg in segs if seg[0] == pen)
-        worst = max(worst, d)
+    for x, y, pen in pen_walk(steps):
+        worst = max(worst, min(dist((x, y), seg) for seg in segs if seg[0] == pen))
     assert worst <= 1.0, worst
     assert (x, y) == (0, 0)                        # back at the centre
 
@@ -399,14 +398,8 @@ def test_typed_circle_is_drawn(session):
     m = session["marks"]
     steps = steps_between(session, m["circle"])
     start = (JOG, JOG)                             # where the jogs left the pen
-    x, y = start
-    pen = False
     on_circle = 0
-    for s in steps:
-        if isinstance(s, vcd_trace.Pen):
-            pen = s.down
-            continue
-        x, y = x + s.dx, y + s.dy
+    for x, y, pen in pen_walk(steps, start):
         if pen:
             assert abs(math.dist((x, y), (1234, 800)) - 200) <= 1.0
             on_circle += 1

@@ -19,14 +19,12 @@ they are the path of the host build of the same core; the pen follows its
 commands.  The s51 part is skipped when s51 (Debian package sdcc-ucsim) is
 missing, except on CI (CI=true), where that is a failure.
 """
-import os
 import re
-import shutil
 import sys
 
 import pytest
 
-from firmware_build import FIRMWARE, host_library, mcu_image
+from firmware_build import FIRMWARE, host_library, mcu_image, require_s51
 from plotter_bridge.firmware_core import FirmwareCore
 
 sys.path.insert(0, str(FIRMWARE / "tools"))
@@ -104,11 +102,7 @@ def test_host_build_moves_the_windings_along_the_sequence(drive):
 
 @pytest.fixture(scope="module")
 def s51():
-    if shutil.which("s51") is None:
-        reason = "s51 (Debian package sdcc-ucsim) is not installed"
-        if os.environ.get("CI") == "true":
-            pytest.fail(reason + " - required on CI", pytrace=False)
-        pytest.skip(reason)
+    require_s51()
 
 
 def wait_idle(sim):

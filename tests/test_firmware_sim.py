@@ -17,15 +17,13 @@ through its UART, like a terminal would send them.  Checked:
 Skipped when s51 (Debian package sdcc-ucsim) is missing, except on CI
 (CI=true), where that is a failure.
 """
-import os
 import re
-import shutil
 import subprocess
 import sys
 
 import pytest
 
-from firmware_build import FIRMWARE, host_library
+from firmware_build import FIRMWARE, host_library, require_s51
 from plotter_bridge.firmware_core import FirmwareCore
 
 sys.path.insert(0, str(FIRMWARE / "tools"))
@@ -43,11 +41,7 @@ END = (400, -100)
 
 @pytest.fixture(scope="module")
 def image():
-    if shutil.which("s51") is None:
-        reason = "s51 (Debian package sdcc-ucsim) is not installed"
-        if os.environ.get("CI") == "true":
-            pytest.fail(reason + " - required on CI", pytrace=False)
-        pytest.skip(reason)
+    require_s51()
     subprocess.run(["make", "-s", "-C", str(FIRMWARE), "build/plotter.ihx"], check=True)
     return FIRMWARE / "build" / "plotter"
 

@@ -11,14 +11,12 @@ without the Z ones - XY interpolation unchanged.  The s51 part is skipped
 when s51 (Debian package sdcc-ucsim) is missing, except on CI (CI=true).
 """
 import ctypes
-import os
 import re
-import shutil
 import sys
 
 import pytest
 
-from firmware_build import FIRMWARE, host_library, mcu_image
+from firmware_build import FIRMWARE, host_library, mcu_image, require_s51
 from plotter_bridge.firmware_core import FirmwareCore
 
 sys.path.insert(0, str(FIRMWARE / "tools"))
@@ -104,11 +102,7 @@ def wait_idle(sim):
 
 @pytest.fixture(scope="module")
 def board(tmp_path_factory):
-    if shutil.which("s51") is None:
-        reason = "s51 (Debian package sdcc-ucsim) is not installed"
-        if os.environ.get("CI") == "true":
-            pytest.fail(reason + " - required on CI", pytrace=False)
-        pytest.skip(reason)
+    require_s51()
     vcd = str(tmp_path_factory.mktemp("z") / "p1.vcd")
     with s51sim.Sim(mcu_image(ZAXIS="1"), vcd=vcd) as sim:
         sim.go()
