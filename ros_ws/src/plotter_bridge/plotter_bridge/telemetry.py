@@ -4,15 +4,16 @@ The bridge hands every status report of the board to ``BridgeTelemetry``
 (and says when the serial link is lost) from its I/O thread, which only
 keeps them; two timers of the bridge's node publish, in its namespace:
 
-- ``path`` (nav_msgs/Path): every position the board reported, the pen's
-  trajectory so far;
+- ``path`` (nav_msgs/Path, once a second while it changes): every position
+  the board reported, the pen's trajectory so far (the older half thinned
+  beyond MAX_PATH_POSES);
 - ``planned_path`` (nav_msgs/Path, transient local): the moves of the job
   being streamed, from its board commands, in the same pen coordinates as
   ``path``;
 - ``pen`` (visualization_msgs/Marker, 4 times a second): the pen, red when
   down, grey when up;
-- ``ink`` (visualization_msgs/Marker, line list): the pen-down part of the
-  trajectory, what is on the paper;
+- ``ink`` (visualization_msgs/Marker, line list, with ``path``): the pen-down
+  part of the trajectory, what is on the paper;
 - ``/diagnostics`` (diagnostic_msgs/DiagnosticArray, once a second, as
   diagnostic_updater does): the link (connection, bytes, errors,
   retransmissions) and the board (state, queue fill, step rate, firmware),
@@ -25,6 +26,13 @@ The board counts motor steps; on a machine whose motors are not its axes
 kinematics first (``to_pen``: motor steps to the pen's mm times steps_per_mm),
 the reported ones and the planned ones alike.
 The pure functions below hold the logic; the class only turns it into messages.
+
+The bridge's serial thread shares the Python interpreter with these
+publishers, and building and converting a long path holds it: 5,000 poses
+took some 70 ms, enough to leave a fast board without its next line.  So
+each reported position becomes its pose and point once, when it arrives,
+and the long messages go out once a second, at most MAX_PATH_POSES poses
+(about 5 ms).
 """
 from __future__ import annotations
 
@@ -35,8 +43,9 @@ from dataclasses import dataclass, field, replace
 from typing import Callable, Iterable, List, Optional, Sequence, Tuple
 
 MM = 0.001                      # metres per mm
-MAX_PATH_POSES = 5000           # older poses are thinned out beyond this
-PUBLISH_PERIOD = 0.25           # s between pen, path and ink messages (when they changed)
+MAX_PATH_POSES = 1500           # older poses are thinned out beyond this
+PUBLISH_PERIOD = 0.25           # s between pen messages and new planned paths
+TRACE_PERIOD = 1.0              # s between path and ink messages (when they changed)
 STALE_AFTER = 1.0               # s without a status report: WARN
 ARC_STEP = 0.1                  # rad between points of an arc in the planned path
 
@@ -131,8 +140,13 @@ def thin(samples: List[Sample], limit: int = MAX_PATH_POSES) -> List[Sample]:
 
 def ink_segments(samples: Sequence[Sample]) -> List[Tuple[Sample, Sample]]:
     """Consecutive reports with the pen down at both: what is on the paper."""
-    return [(a, b) for a, b in zip(samples, samples[1:]) if a.pen_down and b.pen_down
-            and (a.x, a.y) != (b.x, b.y)]
+    return [(samples[k], samples[k + 1]) for k in ink_indices(samples)]
+
+
+def ink_indices(samples: Sequence[Sample]) -> List[int]:
+    """k for each ink segment samples[k] - samples[k + 1]."""
+    return [k for k, (a, b) in enumerate(zip(samples, samples[1:]))
+            if a.pen_down and b.pen_down and (a.x, a.y) != (b.x, b.y)]
 
 
 # --- diagnostics -------------------------------------------------------------------------------
@@ -255,6 +269,8 @@ class BridgeTelemetry:
         self._lock = threading.Lock()
         self._diag_lock = threading.Lock()
         self._samples: List[Sample] = []
+        self._poses: list = []                      # PoseStamped of each sample
+        self._points: list = []                     # Point of each sample, for the ink
         self._changed = False
         self._planned: Optional[tuple] = None
         self._job = None
@@ -263,7 +279,8 @@ class BridgeTelemetry:
         self._reported = BridgeSnapshot()          # counters at the previous diagnostics message
         self._prefix = node.get_fully_qualified_name().lstrip("/")
         self._timers = (node.create_timer(1.0, self.publish_diagnostics),
-                        node.create_timer(PUBLISH_PERIOD, self.publish_motion))
+                        node.create_timer(PUBLISH_PERIOD, self.publish_motion),
+                        node.create_timer(TRACE_PERIOD, self.publish_trace))
 
     # --- hooks called by the bridge (its I/O thread) ---------------------------------
     def on_status(self, st, stats, firmware: str = "", last_error: str = "", job=None) -> None:
@@ -284,8 +301,12 @@ class BridgeTelemetry:
             self._last_status_t = now
             if prev is None or (prev.x, prev.y, prev.pen_down) != (sample.x, sample.y, sample.pen_down):
                 self._samples.append(sample)
+                self._poses.append(self._pose(self._header(), sample.x, sample.y))
+                self._points.append(self._point(sample))
                 if len(self._samples) > MAX_PATH_POSES:
                     self._samples = thin(self._samples)
+                    self._poses = thin(self._poses)
+                    self._points = thin(self._points)
                 self._changed = True
             if job is not None and job is not self._job and getattr(job, "commands", None):
                 self._job = job
@@ -293,18 +314,23 @@ class BridgeTelemetry:
                                  getattr(job, "expected_end", None))
 
     def publish_motion(self) -> None:
-        """Timer: the pen, path and ink when the pen moved, the planned path of a new job."""
+        """Timer: the pen, the planned path of a new job."""
         with self._lock:
             last = self._samples[-1] if self._samples else None
-            samples = list(self._samples) if self._changed else None
             planned, self._planned = self._planned, None
-            self._changed = False
         if planned is not None:
             self._publish_planned(*planned)
         if last is not None:
             self._publish_pen(last)
-        if samples:
-            self._publish_trace(samples)
+
+    def publish_trace(self) -> None:
+        """Timer: the path and the ink, when the pen moved."""
+        with self._lock:
+            if not self._changed:
+                return
+            samples, poses, points = list(self._samples), list(self._poses), list(self._points)
+            self._changed = False
+        self._publish_trace(samples, poses, points)
 
     def on_link_lost(self, reason: str) -> None:
         with self._lock:
@@ -326,19 +352,22 @@ class BridgeTelemetry:
         p.pose.orientation.w = 1.0
         return p
 
-    def _publish_trace(self, samples: Sequence[Sample]) -> None:
+    def _point(self, s: Sample):
         from geometry_msgs.msg import Point
+        k = self.steps_per_mm / MM
+        return Point(x=s.x / k, y=s.y / k)
+
+    def _publish_trace(self, samples: Sequence[Sample], poses: list, points: list) -> None:
         from nav_msgs.msg import Path
         from visualization_msgs.msg import Marker
         header = self._header()
-        self.pub_path.publish(Path(header=header, poses=[self._pose(header, s.x, s.y) for s in samples]))
+        self.pub_path.publish(Path(header=header, poses=poses))
         ink = Marker(header=header, ns="ink", id=0, type=Marker.LINE_LIST, action=Marker.ADD)
         ink.pose.orientation.w = 1.0
         ink.scale.x = 0.0005
         ink.color.r = ink.color.g = ink.color.b = 0.05
         ink.color.a = 1.0
-        k = self.steps_per_mm / MM
-        ink.points = [Point(x=s.x / k, y=s.y / k) for pair in ink_segments(samples) for s in pair]
+        ink.points = [points[k + i] for k in ink_indices(samples) for i in (0, 1)]
         self.pub_ink.publish(ink)
 
     def _publish_pen(self, s: Sample) -> None:
