@@ -246,6 +246,15 @@ def test_serial_a_draws_the_star_but_only_between_lines(panel):
     assert panel.trace == [] and b"err E3" in panel.core.transmitted()
 
 
+def test_serial_a_leaves_a_number_being_typed_alone(panel):
+    panel.press(K_CIRCLE)
+    panel.press(digit_key(4))
+    panel.core.receive(b"a")
+    panel.tick(50)
+    assert panel.digits() == "    0004" and panel.lcd()[1] == "Centre X?"
+    assert panel.trace == []
+
+
 def test_serial_motion_is_refused_while_a_figure_is_drawn(panel):
     panel.press(K_STAR)
     panel.tick(300)

@@ -212,7 +212,9 @@ void panel_tick(void)
     }
     if (rt_star) {
         rt_star = 0;
-        key_pressed(K_STAR);
+        if (entry_field == NOT_TYPING) {
+            key_pressed(K_STAR);          /* as the star key, but never as a digit */
+        }
     }
     figure_poll();
     if (panel_moving && motion_idle()) {
