@@ -172,9 +172,7 @@ static void key_pressed(uint8_t k)
         if (motion_idle()) {              /* standing still: clear the coordinates */
             stepper_zero();
         }
-        HAL_TIMER_HALT();                 /* moving: stop at once, as Ctrl-X does */
-        rx_flush_to = rx_head;
-        rt_reset = 1;
+        RT_STOP(rt_reset);                /* moving: stop at once, as Ctrl-X does */
         return;
     } else {
         if (!motion_idle()) return;
@@ -206,9 +204,7 @@ void panel_tick(void)
         key_pressed(k);
     }
     if (HAL_ESTOP_ACTIVE() && alarm_code != ALARM_ESTOP && !rt_estop) {
-        HAL_TIMER_HALT();                 /* still held: the alarm comes back after a reset */
-        rx_flush_to = rx_head;
-        rt_estop = 1;
+        RT_STOP(rt_estop);                /* still held: the alarm comes back after a reset */
     }
     if (rt_star) {
         rt_star = 0;

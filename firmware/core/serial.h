@@ -39,13 +39,20 @@ extern volatile FLAG rt_star;
 #define RT_STAR_SET()
 #endif
 
+/* Stop the pulses at once and ask the main loop for an e-stop or a reset
+ * (flag rt_estop or rt_reset), dropping the input received so far: from
+ * the UART interrupt, the e-stop pin's interrupt or the panel. */
+#define RT_STOP(flag) do {                                                  \
+    HAL_TIMER_HALT();                                                       \
+    rx_flush_to = rx_head;                                                  \
+    (flag) = 1;                                                             \
+} while (0)
+
 #define SERIAL_RX_BYTE(c) do {                                              \
     if ((c) == RT_STATUS) {                                                 \
         rt_status = 1;                                                      \
     } else if ((c) == RT_ESTOP) {                                           \
-        HAL_TIMER_HALT();                                                   \
-        rx_flush_to = rx_head;                                              \
-        rt_estop = 1;                                                       \
+        RT_STOP(rt_estop);                                                  \
         rx_between_lines = 1;                                               \
     } else if (RT_STAR_MATCH(c)) {                                          \
         RT_STAR_SET();                                                      \
@@ -56,9 +63,7 @@ extern volatile FLAG rt_star;
             } else if ((c) == RT_RESUME) {                                  \
                 rt_resume = 1;                                              \
             } else {                                                        \
-                HAL_TIMER_HALT();                                           \
-                rx_flush_to = rx_head;                                      \
-                rt_reset = 1;                                               \
+                RT_STOP(rt_reset);                                          \
             }                                                               \
         }                                                                   \
     } else if ((uint8_t)(rx_head - rx_tail) < RX_SIZE) {                    \

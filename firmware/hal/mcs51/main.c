@@ -62,9 +62,7 @@ void hal_putc(uint8_t c)
  * loop raises the alarm (and keeps raising it while the button is held). */
 void estop_isr(void) __interrupt(0)
 {
-    HAL_TIMER_HALT();
-    rx_flush_to = rx_head;
-    rt_estop = 1;
+    RT_STOP(rt_estop);
 }
 
 __bit hal_lcd_rs;
