@@ -30,9 +30,10 @@ The pure functions below hold the logic; the class only turns it into messages.
 The bridge's serial thread shares the Python interpreter with these
 publishers, and building and converting a long path holds it: 5,000 poses
 took some 70 ms, enough to leave a fast board without its next line.  So
-each reported position becomes its pose and point once, when it arrives,
-and the long messages go out once a second, at most MAX_PATH_POSES poses
-(about 5 ms).
+the serial thread only records the reports; the trace timer makes each
+report into its pose and point once, keeps them for the next message, and
+sends the long messages once a second, at most MAX_PATH_POSES poses (about
+5 ms).
 """
 from __future__ import annotations
 
@@ -269,8 +270,7 @@ class BridgeTelemetry:
         self._lock = threading.Lock()
         self._diag_lock = threading.Lock()
         self._samples: List[Sample] = []
-        self._poses: list = []                      # PoseStamped of each sample
-        self._points: list = []                     # Point of each sample, for the ink
+        self._built: dict = {}                      # Sample -> its (PoseStamped, Point): trace timer only
         self._changed = False
         self._planned: Optional[tuple] = None
         self._job = None
@@ -301,12 +301,8 @@ class BridgeTelemetry:
             self._last_status_t = now
             if prev is None or (prev.x, prev.y, prev.pen_down) != (sample.x, sample.y, sample.pen_down):
                 self._samples.append(sample)
-                self._poses.append(self._pose(self._header(), sample.x, sample.y))
-                self._points.append(self._point(sample))
                 if len(self._samples) > MAX_PATH_POSES:
                     self._samples = thin(self._samples)
-                    self._poses = thin(self._poses)
-                    self._points = thin(self._points)
                 self._changed = True
             if job is not None and job is not self._job and getattr(job, "commands", None):
                 self._job = job
@@ -328,9 +324,12 @@ class BridgeTelemetry:
         with self._lock:
             if not self._changed:
                 return
-            samples, poses, points = list(self._samples), list(self._poses), list(self._points)
+            samples = list(self._samples)
             self._changed = False
-        self._publish_trace(samples, poses, points)
+        header = self._header()
+        built = {s: self._built.get(s) or (self._pose(header, s.x, s.y), self._point(s)) for s in samples}
+        self._built = built                         # thinned-out samples drop out here
+        self._publish_trace(header, samples, [built[s][0] for s in samples], [built[s][1] for s in samples])
 
     def on_link_lost(self, reason: str) -> None:
         with self._lock:
@@ -357,10 +356,9 @@ class BridgeTelemetry:
         k = self.steps_per_mm / MM
         return Point(x=s.x / k, y=s.y / k)
 
-    def _publish_trace(self, samples: Sequence[Sample], poses: list, points: list) -> None:
+    def _publish_trace(self, header, samples: Sequence[Sample], poses: list, points: list) -> None:
         from nav_msgs.msg import Path
         from visualization_msgs.msg import Marker
-        header = self._header()
         self.pub_path.publish(Path(header=header, poses=poses))
         ink = Marker(header=header, ns="ink", id=0, type=Marker.LINE_LIST, action=Marker.ADD)
         ink.pose.orientation.w = 1.0
