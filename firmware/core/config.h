@@ -45,8 +45,8 @@
 #ifdef PANEL
 #define RAMP_TRAPEZOID_ONLY 1
 #define RT_STAR     'a'             /* real-time byte between lines: draw the star (seed 000, 4.3) */
-#else
-#define HOST_LINK 1
+#elif !defined(HOST_LINK)
+#define HOST_LINK 1                 /* (make PANEL=1 HOST_LINK=1 measures both together) */
 #endif
 
 #if defined(DRIVE_PHASE3) || defined(DRIVE_PHASE3D) || defined(DRIVE_UNIPOLAR)

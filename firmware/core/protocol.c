@@ -376,7 +376,7 @@ static uint8_t cmd_motion(char cmd)
     return planner_arc(cmd == 'C');
 }
 
-#ifdef HOST_LINK
+#if defined(HOST_LINK) && !defined(PANEL)    /* the panel image's settings are fixed */
 /* $0 acceleration divisor, $1 ramp shape, $2 default feed, $3 pen delay. */
 static RAMP_ROM uint16_t setting_min[SETTINGS] = {1, 0, 15, 1};
 static RAMP_ROM uint16_t setting_max[SETTINGS] = {50, RAMP_SHAPES - 1, 65535u, 5000};
@@ -423,7 +423,7 @@ static uint8_t run_command(void)
         return E_OK;                      /* empty line */
     }
     cmd = *cur++;
-#ifdef HOST_LINK
+#if defined(HOST_LINK) && !defined(PANEL)
     if (cmd == '$') {
         return cmd_setting();
     }
