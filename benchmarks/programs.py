@@ -17,21 +17,12 @@ from typing import List, Sequence, Tuple
 
 from plotter_bridge.commands import BoardCommand
 from plotter_bridge.program import StreamerConfig, compile_program
-from plotter_shapes.geometry import goal_program
+from plotter_shapes.geometry import SEED_FIGURES, goal_program
 
 from bound import Item, Move, Wait
 
 PEN_DELAY_S = 0.150          # the board's $3 at power-on
 
-# scripts/demo.py: the seed board's figures laid out on the 200 x 200 mm area.
-FIGURES: Tuple[dict, ...] = (
-    dict(shape="diamond", x=40.0, y=160.0, size=50.0),
-    dict(shape="star", x=100.0, y=160.0, size=50.0),
-    dict(shape="circle", x=160.0, y=160.0, size=25.0, clockwise=True),
-    dict(shape="cone", x=40.0, y=70.0, size=50.0),
-    dict(shape="car", x=100.0, y=70.0, size=50.0),
-    dict(shape="car", x=160.0, y=70.0, size=50.0, reverse=True),
-)
 
 
 @dataclass(frozen=True)
@@ -42,7 +33,7 @@ class Program:
 
 def figure_programs() -> List[Program]:
     out = []
-    for fig in FIGURES:
+    for fig in SEED_FIGURES:
         name, lines = goal_program(fig["shape"], fig["x"], fig["y"], fig["size"],
                                    fig.get("clockwise", False), fig.get("reverse", False))
         out.append(Program(name, "\n".join(lines) + "\n"))

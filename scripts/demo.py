@@ -27,18 +27,9 @@ from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
 from plotter_bridge.node_processes import PlotterGraph, read_trace, wait_until
 from plotter_bridge.picture import figure_polylines, runs_near_path, write_picture
 from plotter_interfaces.msg import BoardState, ShapeGoal
-from plotter_shapes.geometry import build_shape
+from plotter_shapes.geometry import SEED_FIGURES, build_shape
 
 STEPS_PER_MM = 80.0
-# The seed board's figures (seed 000, chapter 4), laid out on the 200 x 200 mm area.
-FIGURES = [
-    dict(shape="diamond", x=40.0, y=160.0, size=50.0),
-    dict(shape="star", x=100.0, y=160.0, size=50.0),
-    dict(shape="circle", x=160.0, y=160.0, size=25.0, clockwise=True),
-    dict(shape="cone", x=40.0, y=70.0, size=50.0),
-    dict(shape="car", x=100.0, y=70.0, size=50.0),
-    dict(shape="car", x=160.0, y=70.0, size=50.0, reverse=True),
-]
 
 
 def main() -> int:
@@ -79,7 +70,7 @@ def main() -> int:
         wait_until(lambda: pub.get_subscription_count() > 0, 30, "shape_server")
         # Programs are published once: the streamer must already be listening.
         wait_until(lambda: node.count_subscribers("program") > 0, 30, "gcode_streamer")
-        for fig in FIGURES:
+        for fig in SEED_FIGURES:
             label = fig["shape"] + (" reversed" if fig.get("reverse") else "")
             print(f"drawing {label} at ({fig['x']:g}, {fig['y']:g}) mm", flush=True)
             t0 = time.monotonic()
@@ -103,7 +94,7 @@ def main() -> int:
     trace = read_trace(graph.trace)
     drawn = [(x / STEPS_PER_MM, y / STEPS_PER_MM) for _, x, y in trace]
     programmed = []
-    for fig in FIGURES:
+    for fig in SEED_FIGURES:
         programmed += figure_polylines(build_shape(fig["shape"], fig["x"], fig["y"], fig["size"],
                                                    fig.get("clockwise", False), fig.get("reverse", False)))
     runs = runs_near_path(drawn, programmed)

@@ -26,7 +26,6 @@ from __future__ import annotations
 
 import math
 import re
-import subprocess
 import sys
 import time
 from dataclasses import dataclass, field
@@ -35,6 +34,8 @@ import pytest
 
 import vcd_trace
 from firmware_build import FIRMWARE, host_library, mcu_image, require_s51
+from panel_keys import (JOG, K_CAR, K_CAR_REV, K_CIRCLE, K_DIAG, K_FASTER, K_NO_FUNCTION, K_RESET,
+                        K_SLOWER, K_STAR, K_XN, K_XP, K_YN, K_YP, assert_on_figure, digit_key)
 from plotter_bridge.firmware_core import FirmwareCore
 
 sys.path.insert(0, str(FIRMWARE / "tools"))
@@ -42,20 +43,7 @@ import s51sim  # noqa: E402
 import gen_figures  # noqa: E402
 
 STATUS = re.compile(r"<(\w+) X(-?\d+) Y(-?\d+) Q(\d+) P(\d+) A(\d+)>")
-JOG = 800                                  # core/panel.c JOG_STEPS
 TICK_PS = 10**12 / 11_059_200              # one clock of the 11.0592 MHz crystal
-
-# Key codes, row * 4 + column (core/panel.h), and the digit keys of seed 000
-# figure 3.3: digit d is row d % 4, column d // 4.
-K_RESET, K_XP, K_CONE, K_CIRCLE = 0, 1, 2, 3
-K_DIAG, K_XN, K_DIAMOND, K_STAR = 4, 5, 6, 7
-K_FASTER, K_YP, K_NONE_A, K_CAR = 8, 9, 10, 11
-K_SLOWER, K_YN, K_CAR_REV = 12, 13, 15
-
-
-def digit_key(d: int) -> int:
-    return (d % 4) * 4 + d // 4
-
 
 def key_pins(code: int) -> int:
     """Port 2's outside value while key `code` is held: its row and its column low."""
@@ -204,9 +192,9 @@ def session(image, tmp_path_factory):
             typed.append(board.now())
             sim.go()
             if number != "0200":
-                board.press(K_NONE_A)          # any key takes the number
+                board.press(K_NO_FUNCTION)          # any key takes the number
         marks["typed"] = Mark(start=typed[0], notes={"times": typed})
-        marks["circle"] = board.draw(K_NONE_A)
+        marks["circle"] = board.draw(K_NO_FUNCTION)
         marks["serial_a"] = board.draw(serial=b"a")
         # E-stop while the car is drawn.
         board.press(K_CAR)
@@ -312,36 +300,8 @@ def test_seven_segment_shows_jog_feed_and_typed_digits(session):
 
 
 def figure_path_ok(steps, commands) -> None:
-    """Every step within one step of the figure; pen down exactly on its strokes."""
-    x = y = 0
-    pen = False
-    segs = []
-    for kind, *a in commands:
-        if kind == "up":
-            pen = False
-        elif kind == "down":
-            pen = True
-        elif kind == "line":
-            segs.append((pen, "line", (x, y), (x + a[0], y + a[1]), None))
-            x, y = x + a[0], y + a[1]
-        elif kind in ("cw", "ccw"):
-            segs.append((pen, "arc", (x, y), (x + a[0], y + a[1]), (x + a[2], y + a[3])))
-            x, y = x + a[0], y + a[1]
-
-    def dist(p, seg):
-        _, kind, a, b, c = seg
-        if kind == "arc":
-            return abs(math.dist(p, c) - math.dist(a, c))
-        ax, ay, bx, by = *a, *b
-        L2 = (bx - ax) ** 2 + (by - ay) ** 2
-        t = 0 if L2 == 0 else max(0.0, min(1.0, ((p[0] - ax) * (bx - ax) + (p[1] - ay) * (by - ay)) / L2))
-        return math.dist(p, (ax + t * (bx - ax), ay + t * (by - ay)))
-
-    worst = 0.0
-    for x, y, pen in pen_walk(steps):
-        worst = max(worst, min(dist((x, y), seg) for seg in segs if seg[0] == pen))
-    assert worst <= 1.0, worst
-    assert (x, y) == (0, 0)                        # back at the centre
+    """Every step within one step of the figure; the pen back at the centre."""
+    assert_on_figure(pen_walk(steps), commands)
 
 
 def host_schedule(commands) -> list[float]:
@@ -357,15 +317,11 @@ def host_schedule(commands) -> list[float]:
     core = FirmwareCore(host_library(PANEL="1"))
     try:
         out, since = [], 0
-        while True:
-            while lines and core.queue_free > 0:
-                core.receive(lines.pop(0).encode() + b"\n")
-                core.poll(2)
-            core.poll()
-            if not core.timer_running() and not lines:
-                break
-            since += core.period()
-            if core.tick():
+        here = core.position
+        for due in core.interrupts(lines):
+            since += due
+            if core.position != here:
+                here = core.position
                 out.append(since)
                 since = 0
         return out

@@ -66,18 +66,12 @@ def host_path(drive):
     try:
         assert lib.core_drive() == list(DRIVES).index(drive) + 1
         core.transmitted()
-        for command in COMMANDS:
-            core.receive(command.encode() + b"\n")
-            core.poll(3)
         x_pat, y_pat = lib.core_port() & bits, lib.core_port2() & bits
         assert (x_pat, y_pat) == (seq[0], seq[0]), "winding A energised at power-on"
         out, pen = [], False
-        while True:
-            core.poll()
-            if not core.timer_running():
-                break
-            x0, y0 = core.position
-            core.tick()
+        x1, y1 = core.position
+        for _ in core.interrupts(COMMANDS):
+            x0, y0 = x1, y1
             x1, y1 = core.position
             nx, ny = lib.core_port() & bits, lib.core_port2() & bits
             assert (move(seq, x_pat, nx) if nx != x_pat else 0) == x1 - x0

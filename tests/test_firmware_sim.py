@@ -23,13 +23,13 @@ import sys
 
 import pytest
 
+import vcd_trace
 from firmware_build import FIRMWARE, host_library, require_s51
 from plotter_bridge.firmware_core import FirmwareCore
 
 sys.path.insert(0, str(FIRMWARE / "tools"))
 import s51sim  # noqa: E402
 
-X_STEP, X_DIR, Y_STEP, Y_DIR, PEN = 0x01, 0x02, 0x04, 0x08, 0x10   # core/config.h, P1
 STATUS = re.compile(r"<(\w+) X(-?\d+) Y(-?\d+) Q(\d+) N(\d+) S(\d+) P(\d+) U(\d+) A(\d+)>")
 REPLY = rb"(?:ok|err|rs)[^\r\n]*\r\n"
 
@@ -51,20 +51,14 @@ def host_steps():
     core = FirmwareCore(host_library())
     try:
         core.transmitted()
-        for command in COMMANDS:
-            core.receive(command.encode() + b"\n")
-            core.poll(3)
         pen = False
         steps = []
         since = 0
+        x1, y1 = core.position
         # the same loop as core_run_steps, watching the pen between ticks
-        while True:
-            core.poll()
-            if not core.timer_running():
-                break
-            since += core.period()
-            x0, y0 = core.position
-            core.tick()
+        for due in core.interrupts(COMMANDS):
+            since += due
+            x0, y0 = x1, y1
             x1, y1 = core.position
             if (x1, y1) != (x0, y0):          # the pulse leaves first, then the port
                 steps.append((x1 - x0, y1 - y0, since))     # takes a new pen state
@@ -79,22 +73,8 @@ def host_steps():
 
 def board_steps(vcd_path):
     """The same list, rebuilt from the port 1 trace of the 8051."""
-    events = s51sim.read_vcd(vcd_path)["P1"]
-    out, prev, last = [], None, None
-    for t, v in events:
-        if prev is not None:
-            if (v ^ prev) & PEN:
-                out.append(("pen", bool(v & PEN)))
-            rising = v & ~prev & (X_STEP | Y_STEP)
-            if rising:
-                assert rising in (X_STEP, Y_STEP), "one axis per step"
-                dx = (-1 if v & X_DIR else 1) if rising == X_STEP else 0
-                dy = (-1 if v & Y_DIR else 1) if rising == Y_STEP else 0
-                cycles = None if last is None else s51sim.cycles(t - last)
-                out.append((dx, dy, cycles))
-                last = t
-        prev = v
-    return out
+    return [("pen", s.down) if isinstance(s, vcd_trace.Pen) else (s.dx, s.dy, s.cycles)
+            for s in vcd_trace.steps(s51sim.read_vcd(vcd_path)["P1"])]
 
 
 @pytest.fixture(scope="module")

@@ -10,7 +10,6 @@ move step for step as the default build moves them for the same commands
 without the Z ones - XY interpolation unchanged.  The s51 part is skipped
 when s51 (Debian package sdcc-ucsim) is missing, except on CI (CI=true).
 """
-import ctypes
 import re
 import sys
 
@@ -37,25 +36,13 @@ def xy_commands():
 def host_steps(library, commands, z=False):
     """Per step: ("x"|"y"|"z", +1/-1), and the end position."""
     core = FirmwareCore(library)
-    lib = core._lib
-    if z:
-        lib.core_pos_z.restype = ctypes.c_int32
-    pos_z = (lambda: lib.core_pos_z()) if z else (lambda: 0)
+    pos_z = (lambda: core.position_z) if z else (lambda: 0)
     try:
         core.transmitted()
-        pending = list(commands)
         out = []
-        while True:
-            while pending and core.queue_free:     # the queue holds 6
-                core.receive(pending.pop(0).encode() + b"\n")
-                core.poll(3)
-            core.poll()
-            if not core.timer_running():
-                if not pending:
-                    break
-                continue
-            (x0, y0), z0 = core.position, pos_z()
-            core.tick()
+        (x1, y1), z1 = core.position, pos_z()
+        for _ in core.interrupts(commands):
+            (x0, y0), z0 = (x1, y1), z1
             (x1, y1), z1 = core.position, pos_z()
             for axis, d in (("x", x1 - x0), ("y", y1 - y0), ("z", z1 - z0)):
                 if d:

@@ -15,19 +15,17 @@ import sys
 import pytest
 
 from firmware_build import FIRMWARE, host_library
+from panel_keys import (JOG, K_CAR, K_CAR_REV, K_CIRCLE, K_CONE, K_DIAG, K_DIAMOND, K_FASTER,
+                        K_NO_FUNCTION, K_RESET, K_SLOWER, K_STAR, K_XN, K_XP, K_YN, K_YP,
+                        assert_on_figure, digit_key, figure_segments)
+from vcd_trace import SEGMENTS
 from plotter_bridge.firmware_core import FirmwareCore
 
 sys.path.insert(0, str(FIRMWARE / "tools"))
 import gen_figures  # noqa: E402
 
-from plotter_shapes import geometry  # noqa: E402
 
-JOG = 800
 NO_KEY = 0xFF
-SEGMENTS = {0x3F: "0", 0x06: "1", 0x5B: "2", 0x4F: "3", 0x66: "4", 0x6D: "5",
-            0x7D: "6", 0x07: "7", 0x7F: "8", 0x6F: "9", 0x00: " "}
-K_RESET, K_XP, K_CONE, K_CIRCLE, K_DIAG, K_XN, K_DIAMOND, K_STAR = 0, 1, 2, 3, 4, 5, 6, 7
-K_FASTER, K_YP, K_CAR, K_SLOWER, K_YN, K_CAR_REV = 8, 9, 11, 12, 13, 15
 BIT_X_DIR, BIT_Y_DIR = 0x02, 0x08           # the closed limit switches, as the direction bits
 
 
@@ -98,10 +96,6 @@ def panel():
     p.close()
 
 
-def digit_key(d: int) -> int:
-    return (d % 4) * 4 + d // 4
-
-
 def test_start_screen(panel):
     assert panel.core.transmitted().startswith(b"PLOTTER 8051 1.0 panel ready")
     assert panel.lcd() == ("X0 Y0", "Ready")
@@ -132,7 +126,7 @@ def test_a_key_held_acts_once(panel):
 
 
 def test_keys_without_function_do_nothing(panel):
-    for key in (10, 14):
+    for key in (K_NO_FUNCTION, 14):
         panel.press(key)
     panel.run(500)
     assert panel.position == (0, 0) and panel.lcd()[1] == "Ready"
@@ -156,7 +150,7 @@ def type_circle(panel, cx: str, cy: str, r: str) -> None:
     for number in (cx, cy, r):
         for d in number:
             panel.press(digit_key(int(d)))
-        panel.press(10)
+        panel.press(K_NO_FUNCTION)
 
 
 def test_typed_circle(panel):
@@ -193,36 +187,6 @@ def test_reset_key_clears_position_when_still_and_stops_motion(panel):
     assert panel.lcd()[1] == "Ready"
 
 
-def figure_steps_ok(trace, commands, start=(0, 0)) -> None:
-    """Every step of the trace within one step of the figure's segments of
-    the same pen state, and the end back at the start."""
-    x, y = start
-    pen = False
-    segs = []
-    for kind, *a in commands:
-        if kind in ("up", "down"):
-            pen = kind == "down"
-            continue
-        if kind == "end":
-            break
-        end = (x + a[0], y + a[1])
-        centre = (x + a[2], y + a[3]) if kind in ("cw", "ccw") else None
-        segs.append((pen, (x, y), end, centre))
-        x, y = end
-
-    def dist(p, seg):
-        _, a, b, c = seg
-        if c is not None:
-            return abs(math.dist(p, c) - math.dist(a, c))
-        L2 = (b[0] - a[0]) ** 2 + (b[1] - a[1]) ** 2
-        t = max(0.0, min(1.0, ((p[0] - a[0]) * (b[0] - a[0]) + (p[1] - a[1]) * (b[1] - a[1])) / L2))
-        return math.dist(p, (a[0] + t * (b[0] - a[0]), a[1] + t * (b[1] - a[1])))
-
-    for x, y, pen in trace:
-        assert min(dist((x, y), s) for s in segs if s[0] == pen) <= 1.0, (x, y, pen)
-    assert trace[-1][:2] == start
-
-
 @pytest.mark.parametrize("key,figure", [(K_DIAMOND, "FIG_DIAMOND"), (K_STAR, "FIG_STAR"), (K_CONE, "FIG_CONE"),
                                         (K_CAR, "FIG_CAR"), (K_CAR_REV, "FIG_CAR_REV")])
 def test_figure_keys_draw_their_figures(panel, key, figure):
@@ -232,14 +196,14 @@ def test_figure_keys_draw_their_figures(panel, key, figure):
     panel.trace.clear()
     panel.press(key)
     panel.run(40000)
-    figure_steps_ok(panel.trace, gen_figures.all_figures()[figure], start)
+    assert_on_figure(panel.trace, gen_figures.all_figures()[figure], start)
     assert panel.lcd()[1] == "Ready"
 
 
 def test_serial_a_draws_the_star_but_only_between_lines(panel):
     panel.core.receive(b"a")
     panel.run(30000)
-    figure_steps_ok(panel.trace, gen_figures.all_figures()["FIG_STAR"])
+    assert_on_figure(panel.trace, gen_figures.all_figures()["FIG_STAR"])
     panel.trace.clear()
     panel.core.receive(b"L 10 a\n")               # inside a line: part of it, a bad number
     panel.run(500)
@@ -270,17 +234,11 @@ def test_figures_are_the_host_shapes_within_the_grid(panel):
     for name, make in gen_figures.FIGURES:
         fig = make()
         commands = gen_figures.all_figures()[name]
-        x = y = 0
-        ends = []
-        for kind, *a in commands:
-            if kind not in ("up", "down", "end"):
-                x, y = x + a[0], y + a[1]
-                ends.append((x, y))
+        ends = [seg[2] for seg in figure_segments(commands)]
         want = [(s.end[0] * gen_figures.STEPS_PER_MM, s.end[1] * gen_figures.STEPS_PER_MM)
                 for st in fig.strokes for s in st.segments]
         for p in want:
             assert min(math.dist(p, e) for e in ends) <= half * math.sqrt(2), (name, p)
-    assert isinstance(geometry.Arc, type)
 
 
 def test_estop_pin_alarm_until_released_and_reset(panel):

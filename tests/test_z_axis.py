@@ -202,19 +202,10 @@ def run(library, commands):
     core = FirmwareCore(library)
     try:
         core.transmitted()
-        pending = list(commands)
         steps = []
-        while True:
-            while pending and core.queue_free:
-                core.receive(pending.pop(0).encode() + b"\n")
-                core.poll(3)
-            core.poll()
-            if not core.timer_running():
-                if not pending:
-                    break
-                continue
-            (x0, y0), z0 = core.position, core.position_z or 0
-            core.tick()
+        (x1, y1), z1 = core.position, core.position_z or 0
+        for _ in core.interrupts(commands):
+            (x0, y0), z0 = (x1, y1), z1
             (x1, y1), z1 = core.position, core.position_z or 0
             for axis, d in (("x", x1 - x0), ("y", y1 - y0), ("z", z1 - z0)):
                 if d:

@@ -12,6 +12,7 @@ import shutil
 import tempfile
 from dataclasses import dataclass
 from pathlib import Path
+from typing import Iterable, Iterator
 
 CYCLES_PER_S = 921_600  # STC89C52RC: 11.0592 MHz / 12
 LIB_NAME = "libplotter_core.so"
@@ -158,6 +159,25 @@ class FirmwareCore:
     def plan_arc(self, dx: int, dy: int, i: int, j: int, clockwise: bool,
                  feed: int = 0, exit_rate: int = 0) -> int:
         return int(self._lib.core_plan_arc(dx, dy, i, j, int(clockwise), feed, exit_rate))
+
+    def interrupts(self, lines: Iterable[str]) -> Iterator[int]:
+        """Typed command lines into the UART as the queue takes them, the main
+        loop, and the step interrupt until all is done: after each interrupt,
+        the machine cycles it was due after the one before (the caller reads
+        the position, pen and ports in between)."""
+        pending = list(lines)
+        while True:
+            while pending and self.queue_free:
+                self.receive(pending.pop(0).encode() + b"\n")
+                self.poll(3)
+            self.poll()
+            if not self.timer_running():
+                if not pending:
+                    return
+                continue
+            due = self.period()
+            self.tick()
+            yield due
 
     def run_steps(self, capacity: int = 1_000_000) -> list[Step]:
         """Run everything queued to the end in simulated time; every step taken."""

@@ -176,6 +176,16 @@ WORK_AREA_MM: tuple[float, float] = (200.0, 200.0)
 DEFAULT_CENTRE_MM: tuple[float, float] = (WORK_AREA_MM[0] / 2.0, WORK_AREA_MM[1] / 2.0)
 #: Size used when the size is 0 ("not given").
 DEFAULT_SIZE_MM: float = 40.0
+#: The seed board's figures (seed 000, chapter 4) laid out on the work area,
+#: as scripts/demo.py draws them and the benchmark times them: build_shape's arguments.
+SEED_FIGURES: tuple[dict, ...] = (
+    dict(shape="diamond", x=40.0, y=160.0, size=50.0),
+    dict(shape="star", x=100.0, y=160.0, size=50.0),
+    dict(shape="circle", x=160.0, y=160.0, size=25.0, clockwise=True),
+    dict(shape="cone", x=40.0, y=70.0, size=50.0),
+    dict(shape="car", x=100.0, y=70.0, size=50.0),
+    dict(shape="car", x=160.0, y=70.0, size=50.0, reverse=True),
+)
 #: Feed used when a request gives none (mm/min).
 DEFAULT_FEED_MM_MIN: float = 1500.0
 #: Smallest size accepted: below 1 mm a pen line cannot show a figure.
