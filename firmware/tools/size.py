@@ -23,7 +23,6 @@ import sys
 CODE_LIMIT = 8192
 IRAM_LIMIT = 256
 XRAM_LIMIT = 256
-CODE_BUDGET = 6000      # leaves 2 KB for the keypad / display / figures feature
 STACK_RESERVE = 40
 
 
@@ -81,7 +80,7 @@ def main(argv):
     xram = mem["xram_end"]
 
     rows = [
-        ("code", code, CODE_LIMIT, f"bytes of flash (budget {CODE_BUDGET}: {CODE_BUDGET - code:+d})"),
+        ("code", code, CODE_LIMIT, f"bytes of flash ({CODE_LIMIT - code:+d} free)"),
         ("internal RAM", iram, IRAM_LIMIT,
          f"bytes: {banks} register banks + {data_end - banks} data up to 0x{data_end:02X} "
          f"(direct {direct_end}/128, ISEG {iseg[1]}) + {stack} stack reserve "
