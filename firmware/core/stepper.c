@@ -273,11 +273,12 @@ INLINE uint8_t load_segment(void)
 {
     XDATA uint8_t *src;
     FAST uint8_t *dst;
-    uint8_t n;
-    if (q_tail == q_head) {
+    uint8_t n, slot;
+    slot = q_tail;
+    if (slot == q_head) {
         return 0;
     }
-    src = (XDATA uint8_t *)&queue[q_tail];
+    src = (XDATA uint8_t *)&queue[slot];
     dst = (FAST uint8_t *)&st_seg;
     n = sizeof(segment_t);
     do {
@@ -298,7 +299,8 @@ INLINE uint8_t load_segment(void)
         st_ybase = st_seg.a != st_seg.steps;
         st_lf = (st_seg.a && st_seg.b) ? 0 : -1;
 #else
-        st_lf = st_seg.a ? 0 : -1;   /* a pure Y move must never take the F >= 0 branch */
+        st_lf = 0;
+        if (!st_seg.a) st_lf = -1;   /* a pure Y move must never take the F >= 0 branch */
 #endif
 #ifdef ZAXIS
         /* A Z move is a line along Y with c = 1 (planner_z). */
@@ -334,10 +336,9 @@ INLINE uint8_t load_segment(void)
     st_jy = st_jx;
 #endif
     st_brake_at = st_below - st_seg.exit_brake + st_level_left;
-#ifdef INTERP_COMPARE
-    n = q_tail;
-#endif
-    q_tail = QUEUE_NEXT(q_tail);
+    n = slot + 1;                    /* QUEUE_NEXT without its int arithmetic */
+    if (n == QUEUE_SLOTS) n = 0;
+    q_tail = n;
     if (st_seg.exit && q_tail == q_head) {
         /* Nothing follows yet: plan to stop rather than run off the queue's end. */
         st_seg.exit = 0;
@@ -347,7 +348,7 @@ INLINE uint8_t load_segment(void)
 #ifdef INTERP_COMPARE
     /* An arc's iterations in its final quadrant (only the braking distance
      * above needed exit_brake). */
-    st_seg.exit_brake = queue_final[n];
+    st_seg.exit_brake = queue_final[slot];
 #endif
     st_cruising = 0;
     st_stale = 1;
@@ -677,8 +678,9 @@ arc_move_next:
         st_pulse_x = 1;
         st_pulse_y = 0;
         if (mv & MV_NEG) {
-            c = -st_seg.a;
-            st_seg.a--;
+            c = st_seg.a - 1;
+            st_seg.a = c;
+            c = ~c;                  /* minus the coordinate before the move */
             st_port |= BIT_X_DIR;
         } else {
             c = st_seg.a;
@@ -689,8 +691,9 @@ arc_move_next:
         st_pulse_x = 0;
         st_pulse_y = 1;
         if (mv & MV_NEG) {
-            c = -st_seg.b;
-            st_seg.b--;
+            c = st_seg.b - 1;
+            st_seg.b = c;
+            c = ~c;                  /* minus the coordinate before the move */
             st_port |= BIT_Y_DIR;
         } else {
             c = st_seg.b;
@@ -698,7 +701,7 @@ arc_move_next:
             st_port &= (uint8_t)~BIT_Y_DIR;
         }
     }
-    st_af += (int32_t)(uint32_t)((uint32_t)(int32_t)c << 1) + 1;   /* 2c + 1, shifted unsigned: defined for negative c */
+    st_af += (int32_t)((uint32_t)(int32_t)c << 1 | 1);   /* 2c + 1 (2c is even): shifted unsigned, defined for negative c */
 #endif
 #ifndef DRIVE_PHASE
     HAL_PORT_OUT(st_port);           /* direction set a whole period before its pulse */
