@@ -385,6 +385,7 @@ STEPPER_ISR
 {
     uint8_t mv;
     int16_t c;
+    uint16_t hold;
 
     HAL_TIMER_ADVANCE(st_period);
 #ifdef PANEL
@@ -814,32 +815,35 @@ arc_move_next:
 ramp:
     /* Brake to the exit level in time, else climb to the cruise level. */
     st_cruising = 0;
-    if (st_level && (HOLDING || st_level > st_seg.cruise ||
-                     (st_level > st_seg.exit && st_seg.steps <= st_brake_at))) {
-        /* Brake (or slow down for a feed hold). */
-        st_brake_at--;
-        if (--st_level_left == 0) {
+    mv = 0;                          /* brake (or slow down for a feed hold) */
+    if (!(st_level && (HOLDING || st_level > st_seg.cruise ||
+                       (st_level > st_seg.exit && st_seg.steps <= st_brake_at)))) {
+        if (st_level >= st_seg.cruise || HOLDING) {
+            goto cruise;
+        }
+        mv = 1;                      /* climb towards the cruise level */
+    }
+    st_brake_at--;
+    if (--st_level_left == 0) {
+        if (!mv) {
             st_level--;
             st_level_left = HOLD_STEPS(st_level);
             st_below -= st_level_left;
             st_stale = 1;
-        }
-    } else if (st_level < st_seg.cruise && !HOLDING) {
-        /* Climb towards the cruise level. */
-        st_brake_at--;
-        if (--st_level_left == 0) {
+        } else {
             /* Here st_brake_at counts the levels between this one and the
              * exit: the steps braking needs once this level is done (at the
              * exit level itself it is minus that level's hold, so the sums
              * are taken modulo 2^16 as the 8051 does). */
             st_level_left = HOLD_STEPS(st_level);
+            hold = HOLD_STEPS(st_level + 1);
             if (st_level < st_seg.exit ||
-                st_seg.steps >= (uint16_t)(st_brake_at + st_level_left + HOLD_STEPS(st_level + 1))) {
+                st_seg.steps >= (uint16_t)(st_brake_at + st_level_left + hold)) {
                 /* Room to brake from the next level too: climb. */
                 st_brake_at += st_level_left;
                 st_below += st_level_left;
                 st_level++;
-                st_level_left = HOLD_STEPS(st_level);
+                st_level_left = hold;
                 st_stale = 1;
             } else if (st_seg.steps <= st_brake_at) {
                 st_level_left = 1;           /* no step to spare: brake at once */
@@ -848,15 +852,6 @@ ramp:
             }
             st_brake_at += st_level_left;
         }
-    } else {
-        /* Cruise at the commanded feed until the braking point (never, if
-         * the exit level is not below this one). */
-        st_period = st_seg.cruise_period;
-        st_stale = 1;
-        st_cruise_to = (st_level > st_seg.exit) ? st_brake_at : 0;
-        CRUISE_SET(st_seg.steps - st_cruise_to);
-        st_cruising = 1;
-        goto done;
     }
     if (st_stale) {
         st_stale = 0;
@@ -892,4 +887,15 @@ pause:
     st_paused = 1;
     st_pulse_x = 0;
     st_pulse_y = 0;
+    return;
+
+cruise:
+    /* Cruise at the commanded feed until the braking point (never, if
+     * the exit level is not below this one). */
+    st_period = st_seg.cruise_period;
+    st_stale = 1;
+    st_cruise_to = (st_level > st_seg.exit) ? st_brake_at : 0;
+    CRUISE_SET(st_seg.steps - st_cruise_to);
+    st_cruising = 1;
+    goto done;
 }
