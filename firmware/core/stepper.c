@@ -274,6 +274,7 @@ INLINE uint8_t load_segment(void)
     XDATA uint8_t *src;
     FAST uint8_t *dst;
     uint8_t n, slot;
+    uint16_t brake;                  /* hold steps of the levels up to the exit level */
     slot = q_tail;
     if (slot == q_head) {
         return 0;
@@ -335,16 +336,17 @@ INLINE uint8_t load_segment(void)
     st_jx = st_cap >> 1;             /* half a step: the DDA rounds */
     st_jy = st_jx;
 #endif
-    st_brake_at = st_below - st_seg.exit_brake + st_level_left;
     n = slot + 1;                    /* QUEUE_NEXT without its int arithmetic */
     if (n == QUEUE_SLOTS) n = 0;
     q_tail = n;
-    if (st_seg.exit && q_tail == q_head) {
+    brake = st_seg.exit_brake;
+    if (st_seg.exit && n == q_head) {
         /* Nothing follows yet: plan to stop rather than run off the queue's end. */
         st_seg.exit = 0;
-        st_brake_at += st_seg.exit_brake - HOLD_STEPS(0);
+        brake = HOLD_STEPS(0);
         st_underruns++;
     }
+    st_brake_at = st_below - brake + st_level_left;
 #ifdef INTERP_COMPARE
     /* An arc's iterations in its final quadrant (only the braking distance
      * above needed exit_brake). */
@@ -733,23 +735,24 @@ arc_move_next:
                 /* Final quadrant: the remaining count is now exact, and the
                  * moves towards the end are known (same quadrant: the
                  * differences do not overflow). */
-                st_seg.dirs = 0;
+                mv = 0;
                 c = st_seg.c - st_seg.a;
                 if (c < 0) {
-                    st_seg.dirs = MV_XN;
+                    mv = MV_XN;
                     c = -c;
                 } else if (c) {
-                    st_seg.dirs = MV_XP;
+                    mv = MV_XP;
                 }
-                st_seg.steps = (uint16_t)c;
+                hold = (uint16_t)c;
                 c = st_seg.d - st_seg.b;
                 if (c < 0) {
-                    st_seg.dirs |= MV_YN;
+                    mv |= MV_YN;
                     c = -c;
                 } else if (c) {
-                    st_seg.dirs |= MV_YP;
+                    mv |= MV_YP;
                 }
-                st_seg.steps += (uint16_t)c;
+                st_seg.steps = hold + (uint16_t)c;
+                st_seg.dirs = mv;
 #if defined(INTERP_COMPARE)
                 /* The iterations to the end, as the planner counted them
                  * (none if the end is here). */
@@ -894,8 +897,10 @@ cruise:
      * the exit level is not below this one). */
     st_period = st_seg.cruise_period;
     st_stale = 1;
-    st_cruise_to = (st_level > st_seg.exit) ? st_brake_at : 0;
-    CRUISE_SET(st_seg.steps - st_cruise_to);
+    st_cruise_to = 0;
+    if (st_level > st_seg.exit) st_cruise_to = st_brake_at;
+    hold = st_seg.steps - st_cruise_to;
+    CRUISE_SET(hold);
     st_cruising = 1;
     goto done;
 }
