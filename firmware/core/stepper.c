@@ -522,8 +522,7 @@ run:
     }
 #endif
     if (!st_cruising) {
-        st_seg.steps--;
-        goto ramp;
+        goto count;
     }
 cruise_step:
     /* Cruising: the step count is kept as its distance to the braking point,
@@ -782,8 +781,8 @@ arc_move_next:
         if (st_cruising) {
             goto cruise_step;
         }
-        if (--st_seg.steps == 0) {
-            st_seg.steps = 1;        /* an estimate: the count runs out at the end, not before */
+        if (st_seg.steps == 1) {
+            goto ramp;               /* an estimate: the count runs out at the end, not before */
         }
     } else {
 #ifdef INTERP_DIAGONAL
@@ -798,8 +797,8 @@ arc_move_next:
         if (st_cruising) {
             goto cruise_step;
         }
-        if (--st_seg.steps == 0) {
-            st_seg.steps = 1;
+        if (st_seg.steps == 1) {
+            goto ramp;
         }
 #else
         /* An axis that reached its end coordinate moves no more. */
@@ -811,10 +810,10 @@ arc_move_next:
         if (st_cruising) {
             goto cruise_step;
         }
-        st_seg.steps--;
 #endif
     }
-
+count:
+    st_seg.steps--;
 ramp:
     /* Brake to the exit level in time, else climb to the cruise level. */
     st_cruising = 0;
