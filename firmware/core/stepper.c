@@ -364,20 +364,19 @@ INLINE uint8_t arc_next_move(void)
 {
     uint8_t mv, toward;
     mv = ((int8_t)(st_af >> 24) < 0) ? (uint8_t)(st_moves >> 4) : (uint8_t)(st_moves & 0x0F);
-    if (st_seg.crossings) {
-        return mv;
+    if (!st_seg.crossings) {
+        toward = st_seg.dirs;
+        if (!(mv & toward)) {
+            /* The other move of the quadrant, if it heads towards the end. */
+            mv = (st_moves | (st_moves >> 4)) & toward;
+            if (!mv) {
+                /* The end lies just off the staircase: walk straight onto it, X first. */
+                mv = toward & MV_X;
+                if (!mv) mv = toward;
+            }
+        }
     }
-    toward = st_seg.dirs;
-    if (mv & toward) {
-        return mv;
-    }
-    /* The other move of the quadrant, if it heads towards the end. */
-    mv = (st_moves | (st_moves >> 4)) & toward;
-    if (mv) {
-        return mv;
-    }
-    /* The end lies just off the staircase: walk straight onto it, X first. */
-    return (toward & MV_X) ? (toward & MV_X) : toward;
+    return mv;
 }
 #endif
 
@@ -553,10 +552,8 @@ cruise_end:
 not_line:
     if (st_seg.kind == SEG_DWELL) {     /* also a pen's settle time */
         st_period = HAL_PERIOD(DWELL_PERIOD);
-        if (--st_seg.steps == 0) {
-            st_load = 1;
-        }
-        return;
+        st_seg.steps--;
+        goto done;
     }
     if (HOLDING && st_level == 0) {
         goto pause;
