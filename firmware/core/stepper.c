@@ -718,61 +718,7 @@ arc_move_next:
             c = st_seg.a;
         }
         if (c != 0 && (c < 0) == st_end_neg) {
-#ifdef INTERP_DDA
-            /* The axis along the half-axis turns round: its remainder, the
-             * part of a step it has gone past its position, now lies the
-             * other way. */
-            c = st_cap - 1;
-            if (st_end_x0) st_jy ^= c; else st_jx ^= c;
-#endif
-            st_seg.quadrant = arc_turns[st_seg.quadrant] >> 4;
-            arc_enter_quadrant();
-            if (--st_seg.crossings == 0) {
-                /* Final quadrant: the remaining count is now exact, and the
-                 * moves towards the end are known (same quadrant: the
-                 * differences do not overflow). */
-                mv = 0;
-                c = st_seg.c - st_seg.a;
-                if (c < 0) {
-                    mv = MV_XN;
-                    c = -c;
-                } else if (c) {
-                    mv = MV_XP;
-                }
-                hold = (uint16_t)c;
-                c = st_seg.d - st_seg.b;
-                if (c < 0) {
-                    mv |= MV_YN;
-                    c = -c;
-                } else if (c) {
-                    mv |= MV_YP;
-                }
-                st_seg.steps = hold + (uint16_t)c;
-                st_seg.dirs = mv;
-#if defined(INTERP_COMPARE)
-                /* The iterations to the end, as the planner counted them
-                 * (none if the end is here). */
-                if (st_seg.dirs) {
-                    st_seg.steps = st_seg.exit_brake;
-                }
-#elif defined(INTERP_DDA)
-                /* Steps to iterations, at least 1 unless the end is here
-                 * (then none).  2^n / R is at least 4/3 when the radius
-                 * (the coordinate along the half-axis) is under 3/4 of the
-                 * capacity: then the steps themselves are a lower bound.
-                 * (Not more: the final correction walks one step per
-                 * iteration.) */
-                c = st_seg.a | st_seg.b;
-                if (c < 0) c = -c;
-                if ((uint16_t)c >= st_cap - (st_cap >> 2)) {
-                    st_seg.steps = ARC_ITERATIONS(st_seg.steps);
-                }
-                if (!st_seg.steps && st_seg.dirs) {
-                    st_seg.steps = 1;
-                }
-#endif
-                goto ramp;
-            }
+            goto turn;
         }
     in_quadrant:
         if (st_cruising) {
@@ -899,4 +845,64 @@ cruise:
     CRUISE_SET(hold);
     st_cruising = 1;
     goto done;
+
+turn:
+    /* The arc has crossed into the next quadrant (out of the way of the
+     * steps within one). */
+#ifdef INTERP_DDA
+    /* The axis along the half-axis turns round: its remainder, the
+     * part of a step it has gone past its position, now lies the
+     * other way. */
+    c = st_cap - 1;
+    if (st_end_x0) st_jy ^= c; else st_jx ^= c;
+#endif
+    st_seg.quadrant = arc_turns[st_seg.quadrant] >> 4;
+    arc_enter_quadrant();
+    if (--st_seg.crossings) {
+        goto in_quadrant;
+    }
+    /* Final quadrant: the remaining count is now exact, and the
+     * moves towards the end are known (same quadrant: the
+     * differences do not overflow). */
+    mv = 0;
+    c = st_seg.c - st_seg.a;
+    if (c < 0) {
+        mv = MV_XN;
+        c = -c;
+    } else if (c) {
+        mv = MV_XP;
+    }
+    hold = (uint16_t)c;
+    c = st_seg.d - st_seg.b;
+    if (c < 0) {
+        mv |= MV_YN;
+        c = -c;
+    } else if (c) {
+        mv |= MV_YP;
+    }
+    st_seg.steps = hold + (uint16_t)c;
+    st_seg.dirs = mv;
+#if defined(INTERP_COMPARE)
+    /* The iterations to the end, as the planner counted them
+     * (none if the end is here). */
+    if (st_seg.dirs) {
+        st_seg.steps = st_seg.exit_brake;
+    }
+#elif defined(INTERP_DDA)
+    /* Steps to iterations, at least 1 unless the end is here
+     * (then none).  2^n / R is at least 4/3 when the radius
+     * (the coordinate along the half-axis) is under 3/4 of the
+     * capacity: then the steps themselves are a lower bound.
+     * (Not more: the final correction walks one step per
+     * iteration.) */
+    c = st_seg.a | st_seg.b;
+    if (c < 0) c = -c;
+    if ((uint16_t)c >= st_cap - (st_cap >> 2)) {
+        st_seg.steps = ARC_ITERATIONS(st_seg.steps);
+    }
+    if (!st_seg.steps && st_seg.dirs) {
+        st_seg.steps = 1;
+    }
+#endif
+    goto ramp;
 }
