@@ -464,11 +464,11 @@ STEPPER_ISR
         goto load;
     }
 run:
+    if (HOLDING && st_level == 0 && st_seg.kind != SEG_DWELL) {
+        goto pause;                  /* (a dwell runs its time out) */
+    }
     if (!st_line) {
         goto not_line;
-    }
-    if (HOLDING && st_level == 0) {
-        goto pause;
     }
 #if defined(INTERP_DDA)
     /* DDA: each iteration adds |dx| and |dy| to the integrators' remainders;
@@ -554,9 +554,6 @@ not_line:
         st_period = HAL_PERIOD(DWELL_PERIOD);
         st_seg.steps--;
         goto done;
-    }
-    if (HOLDING && st_level == 0) {
-        goto pause;
     }
     /* Arc.  F = x^2 + y^2 - R^2 changes by 2c+1 when a coordinate c becomes
      * c+1, by -2c+1 when it becomes c-1 (point-by-point comparison and
@@ -792,8 +789,11 @@ ramp:
                 st_stale = 1;
             } else if (st_seg.steps <= st_brake_at) {
                 st_level_left = 1;           /* no step to spare: brake at once */
-            } else if (st_seg.steps - st_brake_at < st_level_left) {
-                st_level_left = st_seg.steps - st_brake_at;   /* stay only while braking still arrives */
+            } else {
+                hold = st_seg.steps - st_brake_at;
+                if (hold < st_level_left) {
+                    st_level_left = hold;    /* stay only while braking still arrives */
+                }
             }
             st_brake_at += st_level_left;
         }
