@@ -228,17 +228,13 @@ void stepper_start(void)
 #ifdef PANEL
     st_port &= (uint8_t)~(BIT_X_DIR | BIT_Y_DIR);   /* the limit check must not see the last move's directions */
 #endif
-    st_load = 1;
-    st_pulse_x = 0;
-    st_pulse_y = 0;
-    st_level = 0;
+    stepper_abort();
     st_below = 0;
     st_level_left = HOLD_STEPS(0);
     /* The first interrupt loads the first segment, which takes several
      * hundred cycles: let the second, which emits the first pulse, come
      * when it is done, so that the ramp starts on time. */
     st_period = HAL_PERIOD(1024);
-    st_paused = 0;
     st_running = 1;
     HAL_TIMER_START(64);
 }
