@@ -377,7 +377,10 @@ INLINE uint8_t arc_next_move(void)
 #endif
 
 /* The code is laid out for the common case, a line at cruise speed: it runs
- * straight through to the end with one test per condition. */
+ * straight through to the end with one test per condition.  What happens
+ * once per segment or quadrant (cruise set-up, an arc's turn into the next
+ * quadrant) sits after the end, so that the jumps around the steps stay
+ * short. */
 STEPPER_ISR
 {
     uint8_t mv;
@@ -843,8 +846,7 @@ cruise:
     goto done;
 
 turn:
-    /* The arc has crossed into the next quadrant (out of the way of the
-     * steps within one). */
+    /* The arc has crossed into the next quadrant. */
 #ifdef INTERP_DDA
     /* The axis along the half-axis turns round: its remainder, the
      * part of a step it has gone past its position, now lies the
