@@ -94,6 +94,30 @@ static uint8_t level_for_rate(uint16_t rate)
     return k;
 }
 
+/* The step period at feed f, CYCLES_PER_S / f rounded, for f in FEED_MIN
+ * .. 32767: a long division by shift and subtract, the quotient shifting in
+ * where the dividend shifts out.  It needs no library division, and with
+ * CYCLES_PER_S < FEED_MIN * 2^16 the quotient fits 16 bits. */
+#if CYCLES_PER_S >= FEED_MIN * 65536UL || RAMP_R0 + (RAMP_LEVELS - 1) * RAMP_DR > 32767
+#error period_for_feed: the quotient or the feed outgrows 16 bits
+#endif
+static uint16_t period_for_feed(uint16_t f)
+{
+    uint16_t hi = (uint16_t)(CYCLES_PER_S >> 16);
+    uint16_t lo = (uint16_t)CYCLES_PER_S + (f >> 1);
+    uint8_t i = 16;
+    do {
+        hi <<= 1;
+        if (lo & 0x8000) hi++;
+        lo <<= 1;
+        if (hi >= f) {
+            hi -= f;
+            lo++;
+        }
+    } while (--i);
+    return lo;
+}
+
 /* Ramp fields shared by lines and arcs, then into the queue. */
 static uint8_t plan_motion(void)
 {
@@ -102,7 +126,7 @@ static uint8_t plan_motion(void)
     if (plan_arg[PLAN_FEED] < FEED_MIN) plan_arg[PLAN_FEED] = FEED_MIN;
     if (plan_arg[PLAN_FEED] > top) plan_arg[PLAN_FEED] = top;
     if (plan_arg[PLAN_EXIT] > plan_arg[PLAN_FEED]) plan_arg[PLAN_EXIT] = plan_arg[PLAN_FEED];
-    plan.cruise_period = HAL_PERIOD((CYCLES_PER_S + plan_arg[PLAN_FEED] / 2) / plan_arg[PLAN_FEED]);  /* rounded */
+    plan.cruise_period = HAL_PERIOD(period_for_feed(plan_arg[PLAN_FEED]));
     plan.cruise = level_for_rate(plan_arg[PLAN_FEED]);
     plan.exit = level_for_rate(plan_arg[PLAN_EXIT]);
     return commit();
