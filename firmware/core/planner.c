@@ -234,20 +234,25 @@ static void add_product(int16_t a, int16_t b)
 
 #ifndef INTERP_COMPARE
 /* Adds to arc_t the steps of the staircase between point p (p[0], p[1])
- * and the point at radius arc_r on half-axis k (+X, +Y, -X, -Y = 0..3; 4:
- * the centre) bounding the point's quadrant: the staircase moves
- * monotonically, and the point lies on the axis's side of the centre. */
+ * and the point at radius arc_r on half-axis k (+X, +Y, -X, -Y = 0..3
+ * modulo 4: only whether it is an X or a Y axis counts) bounding the
+ * point's quadrant: the staircase moves monotonically, and the point lies
+ * on the axis's side of the centre.  Coordinates and radius are at most
+ * 32767. */
 static void add_axis_steps(uint8_t k, IDATA int16_t *p)
 {
-    uint16_t v;
-    uint8_t i;
-    for (i = 0; i < 2; i++) {          /* x, then y */
-        v = (uint16_t)(p[i] < 0 ? -p[i] : p[i]);
-        if (k < 4 && (k & 1) == i) {    /* the coordinate along the axis */
-            v = v > arc_r ? v - arc_r : arc_r - v;
+    int16_t v;
+    uint8_t n = 2;
+    k &= 1;                             /* counts down to the coordinate along the axis */
+    do {
+        v = *p++;
+        if (v < 0) v = -v;
+        if (k-- == 0) {
+            v -= arc_r;
+            if (v < 0) v = -v;
         }
-        arc_t += v;
-    }
+        arc_t += (uint16_t)v;
+    } while (--n);
 }
 #endif
 
@@ -262,16 +267,23 @@ static void add_squares(IDATA int16_t *p)
  * E_RANGE if the end is outside -32767..32767. */
 static uint8_t arc_points(void)
 {
-    int32_t t;
-    uint8_t k;
-    for (k = 0; k < 2; k++) {
-        t = (int32_t)(int16_t)plan_arg[k] - (int16_t)plan_arg[k + 2];
-        if (t > 32767 || t < -32767) {
+    IDATA uint16_t *arg = plan_arg;     /* dx, then dy; i, j two further */
+    IDATA int16_t *pt = &plan.a;        /* start x, then y; the end two further */
+    uint16_t i, e;
+    uint8_t dh;
+    do {
+        i = arg[2];
+        e = arg[0] - i;
+        dh = (uint8_t)(arg[0] >> 8);
+        /* out of range: d - i overflowed 16 bits (the operands' signs
+         * differ, and the result's differs from d's), or is -32768 */
+        if (((uint8_t)(dh ^ (uint8_t)(i >> 8)) & (uint8_t)(dh ^ (uint8_t)(e >> 8)) & 0x80) || e == 0x8000) {
             return E_RANGE;
         }
-        (&plan.c)[k] = (int16_t)t;
-        (&plan.a)[k] = -(int16_t)plan_arg[k + 2];
-    }
+        pt[2] = (int16_t)e;
+        pt[0] = (int16_t)(0 - i);
+        arg++;
+    } while (++pt != &plan.c);
     return E_OK;
 }
 
@@ -323,6 +335,9 @@ static uint16_t arc_potential(uint8_t k, IDATA int16_t *pt)
 }
 #endif
 
+#if SEG_ARC_CW + 1 != SEG_ARC_CCW
+#error planner_arc: the kind is SEG_ARC_CCW - arc_cw
+#endif
 uint8_t planner_arc(uint8_t clockwise)
 {
     uint8_t qe, cross;
@@ -333,13 +348,14 @@ uint8_t planner_arc(uint8_t clockwise)
     add_squares(&plan.a);                   /* R^2, at most 2 * 32767^2 */
     arc_sqrt();
     if (arc_r == 0) return E_ARC;           /* the centre is the start point */
-    if (arc_r > 32767) return E_RANGE;
-    arc_t = 0 - arc_t;
-    add_squares(&plan.c);                   /* minus the end's squared radius */
-    if ((int32_t)arc_t < 0) arc_t = 0 - arc_t;
-    if (arc_t > 2UL * arc_r + 1) return E_ARC;   /* end more than a step off the circle */
+    if (arc_r & 0x8000) return E_RANGE;     /* above 32767 */
+    /* The end more than a step off the circle, |E^2 - R^2| > w = 2r + 1:
+     * E^2 - R^2 + w outside 0..2w, as unsigned, above 2w. */
+    arc_t = (uint32_t)(2u * arc_r + 1u) - arc_t;
+    add_squares(&plan.c);
+    if (arc_t > (uint32_t)(2u * arc_r + 1u) * 2u) return E_ARC;
 
-    plan.kind = clockwise ? SEG_ARC_CW : SEG_ARC_CCW;
+    plan.kind = (uint8_t)(SEG_ARC_CCW - arc_cw);
     plan.quadrant = arc_quadrant(plan.a, plan.b);
     qe = arc_quadrant(plan.c, plan.d);
     cross = (uint8_t)(arc_cw ? plan.quadrant - qe : qe - plan.quadrant) & 3;
@@ -350,7 +366,7 @@ uint8_t planner_arc(uint8_t clockwise)
         add_product(plan.a, plan.d);
         add_product(-plan.b, plan.c);
         if (arc_cw) arc_t = 0 - arc_t;
-        if ((int32_t)arc_t < 0 || (arc_t == 0 && plan.a == plan.c && plan.b == plan.d)) {
+        if ((int32_t)arc_t < 0 || !(plan_arg[0] | plan_arg[1])) {     /* behind, or the start itself (dx = dy = 0) */
             cross = 4;
         }
     }
@@ -363,9 +379,13 @@ uint8_t planner_arc(uint8_t clockwise)
          * clockwise; between the start's and the end's quadrants lie cross - 1
          * whole quadrants of 2r steps each. */
         arc_t = 0;
-        add_axis_steps((uint8_t)(plan.quadrant + !arc_cw) & 3, &plan.a);
-        add_axis_steps(qe == 4 ? (arc_cw ? 1 : 4) : (uint8_t)(qe + arc_cw) & 3, &plan.c);
-        for (qe = cross; qe > 1; qe--) {
+        add_axis_steps((uint8_t)(plan.quadrant + !arc_cw), &plan.a);
+        /* An end at the centre (qe = 4): |c| + |d| = 0; its steps are r
+         * clockwise (to the +Y half-axis), none counter-clockwise. */
+        if (qe != 4 || arc_cw) {
+            add_axis_steps((uint8_t)(qe + arc_cw), &plan.c);
+        }
+        for (qe = cross; --qe;) {
             arc_t += 2u * arc_r;
         }
     }
@@ -402,7 +422,7 @@ uint8_t planner_arc(uint8_t clockwise)
         arc_t = 1;
     }
 #endif
-    plan.steps = arc_t > 65535UL ? 65535u : (uint16_t)arc_t;
+    plan.steps = (arc_t >> 16) ? 65535u : (uint16_t)arc_t;
     plan.crossings = cross;
     if (arc_cw) plan.quadrant |= 4;
     return plan_motion();
