@@ -48,8 +48,9 @@ static void arc_sqrt(void)
 
 uint8_t queue_used(void)
 {
-    uint8_t tail = q_tail;          /* read once: the step interrupt moves it */
-    return (uint8_t)(q_head >= tail ? q_head - tail : q_head + QUEUE_SLOTS - tail);
+    uint8_t n = (uint8_t)(q_head - q_tail);    /* q_tail read once: the step interrupt moves it */
+    if (n >= QUEUE_SLOTS) n += QUEUE_SLOTS;     /* wrapped below 0 */
+    return n;
 }
 
 void planner_flush(void)
@@ -62,8 +63,9 @@ static uint8_t commit(void)
 {
     XDATA uint8_t *dst;
     IDATA uint8_t *src;
-    uint8_t n;
-    if (QUEUE_NEXT(q_head) == q_tail) {
+    uint8_t n, next = (uint8_t)(q_head + 1);
+    if (next == QUEUE_SLOTS) next = 0;      /* QUEUE_NEXT, in 8 bits */
+    if (next == q_tail) {
         return E_QUEUEFULL;
     }
     plan.seq = plan_seq;
@@ -73,7 +75,7 @@ static uint8_t commit(void)
     do {
         *dst++ = *src++;
     } while (--n);
-    q_head = QUEUE_NEXT(q_head);
+    q_head = next;
     return E_OK;
 }
 
@@ -121,12 +123,13 @@ static uint16_t period_for_feed(uint16_t f)
 /* Ramp fields shared by lines and arcs, then into the queue. */
 static uint8_t plan_motion(void)
 {
-    uint16_t top = RAMP_TOP(SETTING(SET_SHAPE));
-    if (plan_arg[PLAN_FEED] == 0) plan_arg[PLAN_FEED] = SETTING(SET_FEED);
-    if (plan_arg[PLAN_FEED] < FEED_MIN) plan_arg[PLAN_FEED] = FEED_MIN;
-    if (plan_arg[PLAN_FEED] > top) plan_arg[PLAN_FEED] = top;
-    if (plan_arg[PLAN_EXIT] > plan_arg[PLAN_FEED]) plan_arg[PLAN_EXIT] = plan_arg[PLAN_FEED];
-    plan.cruise_period = HAL_PERIOD(period_for_feed(plan_arg[PLAN_FEED]));
+    uint16_t f = plan_arg[PLAN_FEED], top = RAMP_TOP(SETTING(SET_SHAPE));
+    if (f == 0) f = SETTING(SET_FEED);
+    if (f < FEED_MIN) f = FEED_MIN;
+    if (f > top) f = top;
+    plan_arg[PLAN_FEED] = f;
+    if (plan_arg[PLAN_EXIT] > f) plan_arg[PLAN_EXIT] = f;
+    plan.cruise_period = HAL_PERIOD(period_for_feed(f));
     plan.cruise = level_for_rate(plan_arg[PLAN_FEED]);
     plan.exit = level_for_rate(plan_arg[PLAN_EXIT]);
     return commit();
@@ -205,12 +208,13 @@ uint8_t planner_z(void)
 }
 #endif
 
-/* Quadrant 0..3 (I..IV) of a point relative to the centre.  A point on an
- * axis belongs to the quadrant the arc is about to sweep through, so the
- * point where an arc crosses an axis already counts as the next quadrant.
- * The centre itself has no quadrant: 4.  Indexed by the signs of x and y
- * (negative, zero, positive = 0, 1, 2) as 3 * x + y; the quadrant when
- * turning counter-clockwise in bits 0-2, clockwise in bits 4-6. */
+/* Quadrant 0..3 (I..IV) of a point (x, y) = (p[0], p[1]) relative to the
+ * centre.  A point on an axis belongs to the quadrant the arc is about to
+ * sweep through, so the point where an arc crosses an axis already counts
+ * as the next quadrant.  The centre itself has no quadrant: 4.  Indexed by
+ * the signs of x and y (negative, zero, positive = 0, 1, 2) as 3 * x + y;
+ * the quadrant when turning counter-clockwise in bits 0-2, clockwise in
+ * bits 4-6. */
 #define QUADRANT(ccw, cw) ((ccw) | ((cw) << 4))
 static RAMP_ROM uint8_t quadrants[9] = {
     QUADRANT(2, 2), QUADRANT(2, 1), QUADRANT(1, 1),     /* x < 0 */
@@ -218,12 +222,20 @@ static RAMP_ROM uint8_t quadrants[9] = {
     QUADRANT(3, 3), QUADRANT(0, 3), QUADRANT(0, 0),     /* x > 0 */
 };
 
-static uint8_t arc_quadrant(int16_t x, int16_t y)
+static uint8_t arc_quadrant(IDATA int16_t *p)
 {
-    uint8_t k = (x < 0) ? 0 : (x == 0) ? 3 : 6;
-    k += (y < 0) ? 0 : (y == 0) ? 1 : 2;
+    uint8_t k = 0, n = 2;
+    do {
+        k *= 3;
+        if (*p >= 0) {
+            k++;
+            if (*p) k++;
+        }
+        p++;
+    } while (--n);
     k = quadrants[k];
-    return arc_cw ? (uint8_t)(k >> 4) : (uint8_t)(k & 0x0F);
+    if (arc_cw) k >>= 4;
+    return (uint8_t)(k & 0x0F);
 }
 
 /* arc_t += a * b */
@@ -289,24 +301,27 @@ static uint8_t arc_points(void)
 
 /* Start and end in one quadrant, the final one: the moves towards the end
  * (into plan.dirs, see segment.h) and the exact step count (into arc_t).
- * Same quadrant: the differences do not overflow. */
+ * Same quadrant: each difference is at most 32767, their sum fits 16 bits. */
 static void arc_final_quadrant(void)
 {
     IDATA int16_t *p = &plan.a;         /* start x, y, end x, y */
-    uint8_t i, move = MV_XP;
+    uint8_t move = MV_XP, dirs = 0;
     int16_t e;
-    plan.dirs = 0;
-    arc_t = 0;
-    for (i = 0; i < 2; i++, move = MV_YP) {
-        e = p[i + 2] - p[i];
+    uint16_t sum = 0;
+    do {
+        e = p[2] - p[0];
+        p++;
         if (e < 0) {
-            plan.dirs |= move << 1;         /* MV_XN, MV_YN */
+            dirs |= move << 1;          /* MV_XN, MV_YN */
             e = -e;
         } else if (e) {
-            plan.dirs |= move;
+            dirs |= move;
         }
-        arc_t += (uint16_t)e;
-    }
+        sum += (uint16_t)e;
+        move <<= 2;                     /* MV_YP */
+    } while (move != MV_YP << 2);
+    plan.dirs = dirs;
+    arc_t = sum;
 }
 
 #ifdef INTERP_COMPARE
@@ -356,8 +371,8 @@ uint8_t planner_arc(uint8_t clockwise)
     if (arc_t > (uint32_t)(2u * arc_r + 1u) * 2u) return E_ARC;
 
     plan.kind = (uint8_t)(SEG_ARC_CCW - arc_cw);
-    plan.quadrant = arc_quadrant(plan.a, plan.b);
-    qe = arc_quadrant(plan.c, plan.d);
+    plan.quadrant = arc_quadrant(&plan.a);
+    qe = arc_quadrant(&plan.c);
     cross = (uint8_t)(arc_cw ? plan.quadrant - qe : qe - plan.quadrant) & 3;
     if (cross == 0) {
         /* Same quadrant: ahead of the start, or all the way round?  The
