@@ -246,8 +246,8 @@ static void add_product(int16_t a, int16_t b)
 
 #ifndef INTERP_COMPARE
 /* Adds to arc_t the steps of the staircase between point p (p[0], p[1])
- * and the point at radius arc_r on half-axis k (+X, +Y, -X, -Y = 0..3
- * modulo 4: only whether it is an X or a Y axis counts) bounding the
+ * and the point at radius arc_r on half-axis k + arc_cw (+X, +Y, -X, -Y =
+ * 0..3 modulo 4: only whether it is an X or a Y axis counts) bounding the
  * point's quadrant: the staircase moves monotonically, and the point lies
  * on the axis's side of the centre.  Coordinates and radius are at most
  * 32767. */
@@ -255,7 +255,7 @@ static void add_axis_steps(uint8_t k, IDATA int16_t *p)
 {
     int16_t v;
     uint8_t n = 2;
-    k &= 1;                             /* counts down to the coordinate along the axis */
+    k = (uint8_t)(k + arc_cw) & 1;      /* counts down to the coordinate along the axis */
     do {
         v = *p++;
         if (v < 0) v = -v;
@@ -373,7 +373,9 @@ uint8_t planner_arc(uint8_t clockwise)
     plan.kind = (uint8_t)(SEG_ARC_CCW - arc_cw);
     plan.quadrant = arc_quadrant(&plan.a);
     qe = arc_quadrant(&plan.c);
-    cross = (uint8_t)(arc_cw ? plan.quadrant - qe : qe - plan.quadrant) & 3;
+    cross = (uint8_t)(qe - plan.quadrant);
+    if (arc_cw) cross = (uint8_t)-cross;
+    cross &= 3;
     if (cross == 0) {
         /* Same quadrant: ahead of the start, or all the way round?  The
          * cross product start x end says which side the end lies on. */
@@ -385,24 +387,25 @@ uint8_t planner_arc(uint8_t clockwise)
             cross = 4;
         }
     }
+    plan.crossings = cross;                 /* and from here on read there */
     if (cross == 0) {
         arc_final_quadrant();
     }
 #ifndef INTERP_COMPARE
     else {
         /* Quadrant q runs from half-axis q to q+1 counter-clockwise, q+1 to q
-         * clockwise; between the start's and the end's quadrants lie cross - 1
-         * whole quadrants of 2r steps each. */
+         * clockwise: the start leaves its quadrant through the second (the
+         * same axis as q + 1 + arc_cw), the end enters its own through the
+         * first.  Between the start's and the end's quadrants lie cross - 1
+         * whole quadrants of 2r steps each (r at most 32767). */
         arc_t = 0;
-        add_axis_steps((uint8_t)(plan.quadrant + !arc_cw), &plan.a);
+        add_axis_steps((uint8_t)(plan.quadrant + 1), &plan.a);
         /* An end at the centre (qe = 4): |c| + |d| = 0; its steps are r
          * clockwise (to the +Y half-axis), none counter-clockwise. */
         if (qe != 4 || arc_cw) {
-            add_axis_steps((uint8_t)(qe + arc_cw), &plan.c);
+            add_axis_steps(qe, &plan.c);
         }
-        for (qe = cross; --qe;) {
-            arc_t += 2u * arc_r;
-        }
+        add_product((int16_t)arc_r, (uint8_t)(plan.crossings + plan.crossings - 2));
     }
 #endif
 #if defined(INTERP_DDA)
@@ -415,7 +418,7 @@ uint8_t planner_arc(uint8_t clockwise)
      * an arc that crosses one) at least 1 / 0.764 of them (at 67 degrees),
      * within a quadrant at least 1 / 0.707 (near 45 degrees). */
     plan.dirs &= 0x0F;
-    qe = cross ? 193 : 181;
+    qe = plan.crossings ? 193 : 181;
     arc_r = (uint16_t)(((uint32_t)dda_capacity(arc_r + 1, 1) * qe) / arc_r);   /* the radius is done with */
     arc_t = (arc_t * arc_r) >> 8;
 #elif defined(INTERP_COMPARE)
@@ -427,7 +430,7 @@ uint8_t planner_arc(uint8_t clockwise)
     arc_t -= arc_potential(plan.quadrant, &plan.a);
     plan_arg[0] = 0;                        /* a half-axis point; plan_arg[0..3]: free after arc_points */
     plan_arg[1] = arc_r;
-    for (qe = cross; qe; qe--) {
+    for (qe = plan.crossings; qe; qe--) {
         arc_t += arc_potential(arc_cw, (IDATA int16_t *)plan_arg);
     }
 #endif
@@ -437,8 +440,7 @@ uint8_t planner_arc(uint8_t clockwise)
         arc_t = 1;
     }
 #endif
-    plan.steps = (arc_t >> 16) ? 65535u : (uint16_t)arc_t;
-    plan.crossings = cross;
+    plan.steps = (uint16_t)(arc_t >> 16) ? 65535u : (uint16_t)arc_t;
     if (arc_cw) plan.quadrant |= 4;
     return plan_motion();
 }
@@ -456,7 +458,8 @@ static uint8_t plan_wait(void)
 uint8_t planner_pen(uint8_t down)
 {
     plan.kind = SEG_PEN;
-    plan.dirs = down ? BIT_PEN : 0;
+    if (down) down = BIT_PEN;
+    plan.dirs = down;
     plan.steps = SETTING(SET_PEN) ? SETTING(SET_PEN) : 1;
     return plan_wait();
 }
