@@ -35,15 +35,15 @@ static FLAG arc_cw;             /* arc: clockwise */
 /* arc_r = the square root of arc_t, rounded down (arc_t < 2^31). */
 static void arc_sqrt(void)
 {
-    uint16_t root = 0, bit = 0x8000;
+    uint16_t bit = 0x8000;
+    arc_r = 0;
     do {
-        root |= bit;
-        if ((uint32_t)root * root > arc_t) {
-            root ^= bit;
+        arc_r |= bit;
+        if ((uint32_t)arc_r * arc_r > arc_t) {
+            arc_r ^= bit;
         }
         bit >>= 1;
     } while (bit);
-    arc_r = root;
 }
 
 uint8_t queue_used(void)
@@ -96,14 +96,15 @@ static uint8_t level_for_rate(uint16_t rate)
     return k;
 }
 
-/* The step period at feed f, CYCLES_PER_S / f rounded, for f in FEED_MIN
- * .. 32767: a long division by shift and subtract, the quotient shifting in
- * where the dividend shifts out.  It needs no library division, and with
- * CYCLES_PER_S < FEED_MIN * 2^16 the quotient fits 16 bits. */
+/* plan.cruise_period: the step period at feed f, CYCLES_PER_S / f rounded,
+ * for f in FEED_MIN..32767.  A long division by shift and subtract, the
+ * quotient shifting in where the dividend shifts out: it needs no library
+ * division, and with CYCLES_PER_S < FEED_MIN * 2^16 the quotient fits 16
+ * bits. */
 #if CYCLES_PER_S >= FEED_MIN * 65536UL || RAMP_R0 + (RAMP_LEVELS - 1) * RAMP_DR > 32767
-#error period_for_feed: the quotient or the feed outgrows 16 bits
+#error plan_period: the quotient or the feed outgrows 16 bits
 #endif
-static uint16_t period_for_feed(uint16_t f)
+static void plan_period(uint16_t f)
 {
     uint16_t hi = (uint16_t)(CYCLES_PER_S >> 16);
     uint16_t lo = (uint16_t)CYCLES_PER_S + (f >> 1);
@@ -117,7 +118,7 @@ static uint16_t period_for_feed(uint16_t f)
             lo++;
         }
     } while (--i);
-    return lo;
+    plan.cruise_period = HAL_PERIOD(lo);
 }
 
 /* Ramp fields shared by lines and arcs, then into the queue. */
@@ -129,15 +130,16 @@ static uint8_t plan_motion(void)
     if (f > top) f = top;
     plan_arg[PLAN_FEED] = f;
     if (plan_arg[PLAN_EXIT] > f) plan_arg[PLAN_EXIT] = f;
-    plan.cruise_period = HAL_PERIOD(period_for_feed(f));
+    plan_period(f);
     plan.cruise = level_for_rate(plan_arg[PLAN_FEED]);
     plan.exit = level_for_rate(plan_arg[PLAN_EXIT]);
     return commit();
 }
 
-/* |v|; sets dir_bit in plan.dirs if v is negative. */
-static int16_t magnitude(int16_t v, uint8_t dir_bit)
+/* |plan_arg[k]|; sets dir_bit in plan.dirs if it is negative. */
+static int16_t magnitude(uint8_t k, uint8_t dir_bit)
 {
+    int16_t v = (int16_t)plan_arg[k];
     if (v < 0) {
         plan.dirs |= dir_bit;
         v = -v;
@@ -172,8 +174,8 @@ uint8_t planner_line(void)
     }
     plan.kind = SEG_LINE;
     plan.dirs = 0;
-    plan.a = magnitude((int16_t)plan_arg[0], BIT_X_DIR);
-    plan.b = magnitude((int16_t)plan_arg[1], BIT_Y_DIR);
+    plan.a = magnitude(0, BIT_X_DIR);
+    plan.b = magnitude(1, BIT_Y_DIR);
 #if defined(INTERP_COMPARE)
     plan.steps = plan.a > plan.b ? plan.a : plan.b;     /* the base axis steps every time */
 #elif defined(INTERP_DDA)
@@ -201,7 +203,7 @@ uint8_t planner_z(void)
     plan.kind = SEG_LINE;
     plan.dirs = 0;
     plan.a = 0;
-    plan.b = magnitude((int16_t)plan_arg[0], BIT_Z_DIR);
+    plan.b = magnitude(0, BIT_Z_DIR);
     plan.c = 1;
     plan.steps = plan.b;
     return plan_motion();
@@ -356,6 +358,7 @@ static uint16_t arc_potential(uint8_t k, IDATA int16_t *pt)
 uint8_t planner_arc(uint8_t clockwise)
 {
     uint8_t qe, cross;
+    uint16_t w;
 
     arc_cw = clockwise ? 1 : 0;
     if (arc_points()) return E_RANGE;
@@ -366,12 +369,17 @@ uint8_t planner_arc(uint8_t clockwise)
     if (arc_r & 0x8000) return E_RANGE;     /* above 32767 */
     /* The end more than a step off the circle, |E^2 - R^2| > w = 2r + 1:
      * E^2 - R^2 + w outside 0..2w, as unsigned, above 2w. */
-    arc_t = (uint32_t)(2u * arc_r + 1u) - arc_t;
+    w = 2u * arc_r + 1u;
+    arc_t = w - arc_t;
     add_squares(&plan.c);
-    if (arc_t > (uint32_t)(2u * arc_r + 1u) * 2u) return E_ARC;
+    if (arc_t > (uint32_t)w + w) return E_ARC;
 
     plan.kind = (uint8_t)(SEG_ARC_CCW - arc_cw);
-    plan.quadrant = arc_quadrant(&plan.a);
+    /* plan.quadrant gets its 4 if clockwise (segment.h) at once: what
+     * follows takes it modulo 4, or only its parity */
+    qe = arc_quadrant(&plan.a);
+    if (arc_cw) qe |= 4;
+    plan.quadrant = qe;
     qe = arc_quadrant(&plan.c);
     cross = (uint8_t)(qe - plan.quadrant);
     if (arc_cw) cross = (uint8_t)-cross;
@@ -441,7 +449,6 @@ uint8_t planner_arc(uint8_t clockwise)
     }
 #endif
     plan.steps = (uint16_t)(arc_t >> 16) ? 65535u : (uint16_t)arc_t;
-    if (arc_cw) plan.quadrant |= 4;
     return plan_motion();
 }
 
