@@ -136,15 +136,15 @@ static uint8_t plan_motion(void)
     return commit();
 }
 
-/* |plan_arg[k]|; sets dir_bit in plan.dirs if it is negative. */
-static int16_t magnitude(uint8_t k, uint8_t dir_bit)
+/* (&plan.a)[k] = |plan_arg[k]|; sets dir_bit in plan.dirs if it is negative. */
+static void magnitude(uint8_t k, uint8_t dir_bit)
 {
     int16_t v = (int16_t)plan_arg[k];
     if (v < 0) {
         plan.dirs |= dir_bit;
         v = -v;
     }
-    return v;
+    (&plan.a)[k] = v;
 }
 
 #ifdef INTERP_DDA
@@ -174,8 +174,8 @@ uint8_t planner_line(void)
     }
     plan.kind = SEG_LINE;
     plan.dirs = 0;
-    plan.a = magnitude(0, BIT_X_DIR);
-    plan.b = magnitude(1, BIT_Y_DIR);
+    magnitude(0, BIT_X_DIR);
+    magnitude(1, BIT_Y_DIR);
 #if defined(INTERP_COMPARE)
     plan.steps = plan.a > plan.b ? plan.a : plan.b;     /* the base axis steps every time */
 #elif defined(INTERP_DDA)
@@ -202,8 +202,9 @@ uint8_t planner_z(void)
     }
     plan.kind = SEG_LINE;
     plan.dirs = 0;
+    magnitude(0, BIT_Z_DIR);
+    plan.b = plan.a;
     plan.a = 0;
-    plan.b = magnitude(0, BIT_Z_DIR);
     plan.c = 1;
     plan.steps = plan.b;
     return plan_motion();
