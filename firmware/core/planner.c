@@ -392,7 +392,8 @@ uint8_t planner_arc(uint8_t clockwise)
         add_product(plan.a, plan.d);
         add_product(-plan.b, plan.c);
         if (arc_cw) arc_t = 0 - arc_t;
-        if ((int32_t)arc_t < 0 || !(plan_arg[0] | plan_arg[1])) {     /* behind, or the start itself (dx = dy = 0) */
+        /* behind (arc_t < 0), or the start itself (dx = dy = 0) */
+        if (((uint8_t)(arc_t >> 24) & 0x80) || !(plan_arg[0] | plan_arg[1])) {
             cross = 4;
         }
     }
@@ -449,7 +450,9 @@ uint8_t planner_arc(uint8_t clockwise)
         arc_t = 1;
     }
 #endif
-    plan.steps = (uint16_t)(arc_t >> 16) ? 65535u : (uint16_t)arc_t;
+    w = (uint16_t)arc_t;
+    if ((uint16_t)(arc_t >> 16)) w = 65535u;
+    plan.steps = w;
     return plan_motion();
 }
 
