@@ -87,7 +87,13 @@ static uint8_t level_for_rate(uint16_t rate)
     RAMP_ROM uint8_t *holds = &ramp_hold[RAMP_ROW(SETTING(SET_SHAPE))];
     uint8_t k = 0;
     uint16_t sum = (uint16_t)((uint8_t)holds[0] * (uint8_t)SETTING(SET_ACCEL));
-    while (k < RAMP_LEVELS - 1 &&
+    /* rate is at most the top level's (plan_motion): with the trapezoid
+     * alone, the rate a level above the top (computed, not tabled) ends the
+     * loop there */
+    while (
+#if RAMP_SHAPES > 1
+           k < RAMP_LEVELS - 1 &&
+#endif
            RAMP_RATE(SETTING(SET_SHAPE), k + 1) <= rate) {
         k++;
         sum += (uint16_t)((uint8_t)holds[k] * (uint8_t)SETTING(SET_ACCEL));
@@ -353,8 +359,8 @@ static uint16_t arc_potential(uint8_t k, IDATA int16_t *pt)
 }
 #endif
 
-#if SEG_ARC_CW + 1 != SEG_ARC_CCW
-#error planner_arc: the kind is SEG_ARC_CCW - arc_cw
+#if (SEG_ARC_CCW ^ 1) != SEG_ARC_CW
+#error planner_arc: the kind is SEG_ARC_CCW ^ arc_cw
 #endif
 uint8_t planner_arc(uint8_t clockwise)
 {
@@ -375,7 +381,7 @@ uint8_t planner_arc(uint8_t clockwise)
     add_squares(&plan.c);
     if (arc_t > (uint32_t)w + w) return E_ARC;
 
-    plan.kind = (uint8_t)(SEG_ARC_CCW - arc_cw);
+    plan.kind = (uint8_t)(SEG_ARC_CCW ^ arc_cw);
     /* plan.quadrant gets its 4 if clockwise (segment.h) at once: what
      * follows takes it modulo 4, or only its parity */
     qe = arc_quadrant(&plan.a);
