@@ -79,11 +79,12 @@ static uint8_t commit(void)
     return E_OK;
 }
 
-/* The highest ramp level whose rate does not exceed `rate`.  Also leaves in
+/* The highest ramp level whose rate does not exceed *rate.  Also leaves in
  * plan.exit_brake the hold steps (times the multiplier) of the levels up to
  * it: the braking distance to that level. */
-static uint8_t level_for_rate(uint16_t rate)
+static uint8_t level_for_rate(IDATA uint16_t *ratep)
 {
+    uint16_t rate = *ratep;
     RAMP_ROM uint8_t *holds = &ramp_hold[RAMP_ROW(SETTING(SET_SHAPE))];
     uint8_t k = 0;
     uint16_t sum = (uint16_t)((uint8_t)holds[0] * (uint8_t)SETTING(SET_ACCEL));
@@ -137,8 +138,8 @@ static uint8_t plan_motion(void)
     plan_arg[PLAN_FEED] = f;
     if (plan_arg[PLAN_EXIT] > f) plan_arg[PLAN_EXIT] = f;
     plan_period(f);
-    plan.cruise = level_for_rate(plan_arg[PLAN_FEED]);
-    plan.exit = level_for_rate(plan_arg[PLAN_EXIT]);
+    plan.cruise = level_for_rate(&plan_arg[PLAN_FEED]);
+    plan.exit = level_for_rate(&plan_arg[PLAN_EXIT]);
     return commit();
 }
 
@@ -247,6 +248,12 @@ static uint8_t arc_quadrant(IDATA int16_t *p)
     return (uint8_t)(k & 0x0F);
 }
 
+/* arc_t = 0: the call takes 3 bytes of code, the assignment 9 */
+static void clear_t(void)
+{
+    arc_t = 0;
+}
+
 /* arc_t += a * b */
 static void add_product(int16_t a, int16_t b)
 {
@@ -280,8 +287,10 @@ static void add_axis_steps(uint8_t k, IDATA int16_t *p)
 /* arc_t += p[0]^2 + p[1]^2 */
 static void add_squares(IDATA int16_t *p)
 {
-    add_product(p[0], p[0]);
-    add_product(p[1], p[1]);
+    IDATA int16_t *end = p + 2;
+    do {
+        add_product(*p, *p);
+    } while (++p != end);
 }
 
 /* Start and end relative to the centre: (-i, -j) and (dx - i, dy - j);
@@ -369,7 +378,7 @@ uint8_t planner_arc(uint8_t clockwise)
 
     arc_cw = clockwise ? 1 : 0;
     if (arc_points()) return E_RANGE;
-    arc_t = 0;
+    clear_t();
     add_squares(&plan.a);                   /* R^2, at most 2 * 32767^2 */
     arc_sqrt();
     if (arc_r == 0) return E_ARC;           /* the centre is the start point */
@@ -394,7 +403,7 @@ uint8_t planner_arc(uint8_t clockwise)
     if (cross == 0) {
         /* Same quadrant: ahead of the start, or all the way round?  The
          * cross product start x end says which side the end lies on. */
-        arc_t = 0;
+        clear_t();
         add_product(plan.a, plan.d);
         add_product(-plan.b, plan.c);
         if (arc_cw) arc_t = 0 - arc_t;
@@ -414,7 +423,7 @@ uint8_t planner_arc(uint8_t clockwise)
          * same axis as q + 1 + arc_cw), the end enters its own through the
          * first.  Between the start's and the end's quadrants lie cross - 1
          * whole quadrants of 2r steps each (r at most 32767). */
-        arc_t = 0;
+        clear_t();
         add_axis_steps((uint8_t)(plan.quadrant + 1), &plan.a);
         /* An end at the centre (qe = 4): |c| + |d| = 0; its steps are r
          * clockwise (to the +Y half-axis), none counter-clockwise. */
