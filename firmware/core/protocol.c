@@ -25,21 +25,13 @@ uint8_t alarm_code;
 static IDATA char line[LINE_MAX + 1];
 static FAST uint8_t line_len;
 #ifdef HOST_LINK
-static XDATA uint8_t line_s1, line_s2;  /* checksum of the bytes before '*' (see put_eol) */
-
-/* One byte into a Fletcher sum: 8-bit ones' complement additions (an
- * end-around carry), i.e. modulo 255, so that bit 7 errors cannot cancel. */
-#define FLETCHER_ADD(s1, s2, c) do {                                      \
-        uint16_t t_ = (uint16_t)(s1) + (uint8_t)(c);                      \
-        (s1) = (uint8_t)((uint8_t)t_ + (uint8_t)(t_ >> 8));               \
-        t_ = (uint16_t)(s2) + (s1);                                       \
-        (s2) = (uint8_t)((uint8_t)t_ + (uint8_t)(t_ >> 8));               \
-    } while (0)
+/* Fletcher sums 256 * s2 + s1 (put_eol): of the line's bytes before its '*',
+ * and of the reply line so far. */
+static XDATA uint16_t line_sum, tx_sum;
 static FAST uint8_t line_star;    /* index of '*' + 1, 0 if none */
 static FLAG resend_asked;         /* an rs is outstanding: drop later lines quietly */
 static FLAG machine;              /* the line being executed is in machine form */
 static IDATA uint16_t expected_seq;  /* next sequence number to execute */
-static XDATA uint8_t tx_s1, tx_s2;  /* checksum of the reply line so far */
 #endif
 static FLAG line_long;            /* the line overflowed LINE_MAX */
 
@@ -58,6 +50,21 @@ static FLAG out_lcd;              /* out() writes to the LCD (protocol_lcd) */
 static FAST uint8_t lcd_col;
 #endif
 
+#ifdef HOST_LINK
+/* One byte into a Fletcher sum: 8-bit ones' complement additions (an
+ * end-around carry), i.e. modulo 255, so that bit 7 errors cannot cancel. */
+static void fletcher(XDATA uint16_t *sum, uint8_t c)
+{
+    uint16_t t = *sum;
+    uint8_t s1 = (uint8_t)t, s2 = (uint8_t)(t >> 8);
+    s1 += c;
+    if (s1 < c) s1++;
+    s2 += s1;
+    if (s2 < s1) s2++;
+    *sum = (uint16_t)((uint16_t)s2 << 8 | s1);
+}
+#endif
+
 /* Every byte of a reply goes through here, summed for the line's checksum. */
 
 static void out(uint8_t c)
@@ -70,7 +77,7 @@ static void out(uint8_t c)
     }
 #endif
 #ifdef HOST_LINK
-    FLETCHER_ADD(tx_s1, tx_s2, c);
+    fletcher(&tx_sum, c);
 #endif
     hal_putc(c);
 }
@@ -86,18 +93,17 @@ static void put_str(const ROM char *s)
 static void put_num(void);
 
 /* End a reply line with " *<checksum>": the Fletcher sum 256 * s2 + s1 of
- * the bytes before the '*' (FLETCHER_ADD).  Unlike an XOR it notices a
+ * the bytes before the '*' (fletcher).  Unlike an XOR it notices a
  * dropped or repeated pair of equal bytes and swapped bytes; the host trusts
  * no reply that fails it. */
 static void put_eol(void)
 {
 #ifdef HOST_LINK
     out(' ');
-    num = ((uint16_t)tx_s2 << 8) | tx_s1;
+    num = tx_sum;
     hal_putc('*');
     put_num();
-    tx_s1 = 0;
-    tx_s2 = 0;
+    tx_sum = 0;
 #endif
     hal_putc('\r');
     hal_putc('\n');
@@ -155,8 +161,7 @@ void protocol_init(void)
 {
     line_len = 0;
 #ifdef HOST_LINK
-    line_s1 = 0;
-    line_s2 = 0;
+    line_sum = 0;
     line_star = 0;
     expected_seq = 0;
     resend_asked = 0;
@@ -534,7 +539,7 @@ static void execute_line(void)
     }
     end = line + (uint8_t)(line_star - 1);
     cur = line + line_star;
-    if (!parse_u16() || *cur != 0 || arg_mag[0] != (((uint16_t)line_s2 << 8) | line_s1)) {
+    if (!parse_u16() || *cur != 0 || arg_mag[0] != line_sum) {
         reply_resend(E_CHECKSUM);
         return;
     }
@@ -572,8 +577,7 @@ static void receive_byte(uint8_t c)
         }
         line_len = 0;
 #ifdef HOST_LINK
-        line_s1 = 0;
-        line_s2 = 0;
+        line_sum = 0;
         line_star = 0;
 #endif
         line_long = 0;
@@ -587,7 +591,7 @@ static void receive_byte(uint8_t c)
     if (c == '*' && !line_star) {
         line_star = (uint8_t)(line_len + 1);
     } else if (!line_star) {
-        FLETCHER_ADD(line_s1, line_s2, c);
+        fletcher(&line_sum, c);
     }
 #endif
     line[line_len++] = (char)c;
@@ -601,8 +605,7 @@ void protocol_poll(void)
         rx_tail = rx_flush_to;
         line_len = 0;
 #ifdef HOST_LINK
-        line_s1 = 0;
-        line_s2 = 0;
+        line_sum = 0;
         line_star = 0;
 #endif
         line_long = 0;
