@@ -157,16 +157,24 @@ static void put_tag(char tag)
     out((uint8_t)tag);
 }
 
-void protocol_init(void)
+/* Start a new line. */
+static void line_clear(void)
 {
     line_len = 0;
 #ifdef HOST_LINK
     line_sum = 0;
     line_star = 0;
+#endif
+    line_long = 0;
+}
+
+void protocol_init(void)
+{
+    line_clear();
+#ifdef HOST_LINK
     expected_seq = 0;
     resend_asked = 0;
 #endif
-    line_long = 0;
     alarm_code = 0;
     put_str(FW_NAME " " FW_VERSION FW_EDITION " ready");
     put_eol();
@@ -208,11 +216,21 @@ void protocol_lcd(const ROM char *text)
 }
 #endif
 
+/* The states' names, each at its offset in put_str(states + offset). */
+static const ROM char states[] = "Alarm\0Hold\0Run\0Idle";
+
 static void report_status(void)
 {
+    uint8_t state;
     stepper_snapshot();
     out('<');
-    put_str(alarm_code ? "Alarm" : HOLDING ? "Hold" : st_running ? "Run" : "Idle");
+    state = 15;
+    if (st_running) state = 11;
+#ifdef HOST_LINK
+    if (HOLDING) state = 6;
+#endif
+    if (alarm_code) state = 0;
+    put_str(states + state);
     out(' ');
     put_position();
 #ifdef ZAXIS
@@ -575,12 +593,7 @@ static void receive_byte(uint8_t c)
         if (line_len || line_long) {
             execute_line();
         }
-        line_len = 0;
-#ifdef HOST_LINK
-        line_sum = 0;
-        line_star = 0;
-#endif
-        line_long = 0;
+        line_clear();
         return;
     }
     if (line_len >= LINE_MAX) {
@@ -603,12 +616,7 @@ void protocol_poll(void)
         rt_reset = 0;
         HAL_TIMER_HALT();
         rx_tail = rx_flush_to;
-        line_len = 0;
-#ifdef HOST_LINK
-        line_sum = 0;
-        line_star = 0;
-#endif
-        line_long = 0;
+        line_clear();
         if (rt_estop) {
             rt_estop = 0;
             protocol_alarm(ALARM_ESTOP);
