@@ -332,6 +332,10 @@ static uint8_t parse_u16(void)
 static uint8_t parse_args(void)
 {
     uint8_t sign, bit = 1;
+    IDATA uint16_t *a = arg_mag;
+    do {
+        *a++ = 0;                         /* absent: 0, a motion's feed and exit too */
+    } while (a != arg_mag + 6);
     nargs = 0;
     arg_neg = 0;
     skip_separators();
@@ -348,55 +352,6 @@ static uint8_t parse_args(void)
         skip_separators();
     }
     return E_OK;
-}
-
-/* Why a motion command cannot be queued now, or E_OK. */
-static uint8_t refused(void)
-{
-    if (alarm_code) return E_ALARM;
-#ifdef PANEL
-    if (PANEL_BUSY()) return E_BUSY;      /* the panel is drawing a figure */
-#endif
-    return E_OK;
-}
-
-/* L dx dy [feed [exit]], C/A dx dy i j [feed [exit]]: check the numbers and
- * hand them to the planner, feed and exit at PLAN_FEED and PLAN_EXIT. */
-static uint8_t cmd_motion(char cmd)
-{
-    static IDATA uint8_t coords;
-    uint8_t k, bit = 1;
-#ifdef ZAXIS
-    coords = (cmd == 'L') ? 2 : (cmd == 'Z') ? 1 : 4;
-#else
-    coords = (cmd == 'L') ? 2 : 4;
-#endif
-    if (nargs < coords || nargs > (uint8_t)(coords + 2)) return E_ARGS;
-    for (k = 0; k < nargs; k++, bit <<= 1) {
-        if (k < coords) {
-            if (arg_mag[k] > 32767u) return E_RANGE;  /* coordinates: -32767..32767 */
-            if (arg_neg & bit) arg_mag[k] = 0 - arg_mag[k];
-        } else if (arg_neg & bit) {
-            return E_RANGE;                           /* feed and exit are not negative */
-        }
-    }
-    while (nargs < (uint8_t)(coords + 2)) {
-        arg_mag[nargs++] = 0;                         /* feed, exit default to 0 */
-    }
-    if (refused()) return refused();
-    if (cmd == 'L') {
-        arg_mag[PLAN_FEED] = arg_mag[2];
-        arg_mag[PLAN_EXIT] = arg_mag[3];
-        return planner_line();
-    }
-#ifdef ZAXIS
-    if (cmd == 'Z') {
-        arg_mag[PLAN_FEED] = arg_mag[1];
-        arg_mag[PLAN_EXIT] = arg_mag[2];
-        return planner_z();
-    }
-#endif
-    return planner_arc(cmd == 'C');
 }
 
 #if defined(HOST_LINK) && !defined(PANEL)    /* the panel image's settings are fixed */
@@ -436,11 +391,31 @@ static uint8_t cmd_setting(void)
 }
 #endif
 
+/* The commands: letter, coordinates (the first arguments: -32767..32767,
+ * the others are not negative), fewest and most arguments.  A motion
+ * command's feed and exit follow its coordinates. */
+static const ROM char commands[] = {
+    'L', 2, 2, 4,
+    'C', 4, 4, 6,
+    'A', 4, 4, 6,
+#ifdef ZAXIS
+    'Z', 1, 1, 3,
+#endif
+    'P', 0, 1, 1,
+#ifdef HOST_LINK
+    'D', 0, 1, 1,
+#endif
+    'H', 0, 0, 0,
+    0
+};
+
 /* The command in cur..end, as command number plan_seq. */
 static uint8_t run_command(void)
 {
+    const ROM char *t;
+    IDATA uint16_t *a;
+    uint8_t k, coords;
     char cmd;
-    uint8_t err;
     skip_separators();
     if (cur >= end) {
         return E_OK;                      /* empty line */
@@ -451,62 +426,65 @@ static uint8_t run_command(void)
         return cmd_setting();
     }
 #endif
-    err = parse_args();
-    if (err) return err;
-    switch (cmd) {
-    case 'L':
-    case 'C':
-    case 'A':
-#ifdef ZAXIS
-    case 'Z':
-#endif
-        return cmd_motion(cmd);
-    case 'P':
-#ifdef HOST_LINK
-    case 'D':
-#endif
-        if (nargs != 1) return E_ARGS;
-        if (arg_neg || (cmd == 'P' && arg_mag[0] > 1)) return E_RANGE;
-        if (refused()) return refused();
-#ifdef HOST_LINK
-        if (cmd == 'D') return planner_dwell(arg_mag[0]);
-#endif
-        return planner_pen((uint8_t)arg_mag[0]);
-    case 'H':
-        if (nargs != 0) return E_ARGS;
+    k = parse_args();
+    if (k) return k;
+    for (t = commands; ; t += 4) {
+        if (!*t) return E_UNKNOWN;
+        if (*t == cmd) break;
+    }
+    t++;
+    coords = *t++;
+    if (nargs < (uint8_t)*t++) return E_ARGS;
+    if (nargs > (uint8_t)*t) return E_ARGS;
+    if (arg_neg >> coords) return E_RANGE;    /* only coordinates are negative */
+    a = arg_mag;
+    for (k = coords; k; k--, a++, arg_neg >>= 1) {
+        if (*a & 0x8000u) return E_RANGE;
+        if (arg_neg & 1) *a = 0 - *a;
+    }
+    if (cmd == 'P' && arg_mag[0] > 1) return E_RANGE;
+    if (cmd == 'H') {
         if (st_running || queue_used()) return E_BUSY;
         stepper_zero();
         return E_OK;
-    default:
-        return E_UNKNOWN;
     }
+    if (alarm_code) return E_ALARM;
+#ifdef PANEL
+    if (PANEL_BUSY()) return E_BUSY;      /* the panel is drawing a figure */
+#endif
+    if (coords) {                         /* a points past the coordinates */
+        arg_mag[PLAN_FEED] = a[0];
+        arg_mag[PLAN_EXIT] = a[1];
+        if (cmd == 'L') return planner_line();
+#ifdef ZAXIS
+        if (cmd == 'Z') return planner_z();
+#endif
+        return planner_arc(cmd == 'C');
+    }
+#ifdef HOST_LINK
+    if (cmd == 'D') return planner_dwell(arg_mag[0]);
+#endif
+    return planner_pen((uint8_t)arg_mag[0]);
 }
 
-/* "ok" or "err", then " N<seq>" for a machine line. */
-static void reply_start(const ROM char *word)
+/* "ok Q<free>" or "err E<err>", with " N<seq>" after the word for a
+ * machine line. */
+static void reply(uint8_t err)
 {
-    put_str(word);
+    put_str(err ? "err" : "ok");
 #ifdef HOST_LINK
     if (machine) {
         put_tag('N');
         put_u16(plan_seq);
     }
 #endif
-}
-
-static void reply_ok(void)
-{
-    reply_start("ok");
-    put_tag('Q');
-    put_u16(QUEUE_FREE());
-    put_eol();
-}
-
-static void reply_err(uint8_t code)
-{
-    reply_start("err");
-    put_tag('E');
-    put_u16(code);
+    if (err) {
+        put_tag('E');
+        put_u16(err);
+    } else {
+        put_tag('Q');
+        put_u16(QUEUE_FREE());
+    }
     put_eol();
 }
 
@@ -520,7 +498,6 @@ static void reply_resend(uint8_t code)
     put_eol();
     resend_asked = 1;
 }
-
 #endif
 
 static void execute_line(void)
@@ -533,58 +510,57 @@ static void execute_line(void)
     skip_separators();
 #ifdef HOST_LINK
     machine = (*cur == 'N') || line_star;
-    if (line_long) {
-        if (machine) reply_resend(E_TOOLONG); else reply_err(E_TOOLONG);
-        return;
-    }
-    if (!machine) {
-#else
-    if (line_long) {
-        reply_err(E_TOOLONG);
-        return;
-    }
-#endif
-        plan_seq = 0;
-        err = run_command();
-        if (err) reply_err(err); else reply_ok();
-#ifdef HOST_LINK
-        return;
-    }
-    /* N<seq> <command> *<checksum> */
-    if (*cur != 'N' || !line_star) {
-        reply_resend(E_CHECKSUM);
-        return;
-    }
-    end = line + (uint8_t)(line_star - 1);
-    cur = line + line_star;
-    if (!parse_u16() || *cur != 0 || arg_mag[0] != line_sum) {
-        reply_resend(E_CHECKSUM);
-        return;
-    }
-    cur = line + 1;
-    while (*cur == ' ') cur++;
-    if (!parse_u16()) {
-        reply_resend(E_CHECKSUM);
-        return;
-    }
-    plan_seq = arg_mag[0];
-    if (plan_seq != expected_seq) {
-        if ((int16_t)(plan_seq - expected_seq) < 0) {
-            reply_ok();                   /* already executed: acknowledge again */
-        } else if (!resend_asked) {
-            reply_resend(E_SEQUENCE);
+    if (machine) {
+        if (line_long) {
+            reply_resend(E_TOOLONG);
+            return;
         }
-        return;
-    }
-    resend_asked = 0;
-    err = run_command();
-    if (err == E_QUEUEFULL) {
-        reply_resend(E_QUEUEFULL);        /* not executed: the host sends it again */
-        return;
-    }
-    expected_seq++;
-    if (err) reply_err(err); else reply_ok();
+        /* N<seq> <command> *<checksum> */
+        if (*cur != 'N' || !line_star) {
+            reply_resend(E_CHECKSUM);
+            return;
+        }
+        end = line + (uint8_t)(line_star - 1);
+        cur = line + line_star;
+        if (!parse_u16() || *cur != 0 || arg_mag[0] != line_sum) {
+            reply_resend(E_CHECKSUM);
+            return;
+        }
+        cur = line + 1;
+        while (*cur == ' ') cur++;
+        if (!parse_u16()) {
+            reply_resend(E_CHECKSUM);
+            return;
+        }
+        plan_seq = arg_mag[0];
+        if (plan_seq != expected_seq) {
+            if ((int16_t)(plan_seq - expected_seq) < 0) {
+                reply(E_OK);              /* already executed: acknowledge again */
+            } else if (!resend_asked) {
+                reply_resend(E_SEQUENCE);
+            }
+            return;
+        }
+        resend_asked = 0;
+    } else
 #endif
+    if (line_long) {
+        reply(E_TOOLONG);
+        return;
+    } else {
+        plan_seq = 0;
+    }
+    err = run_command();
+#ifdef HOST_LINK
+    if (machine) {
+        if (err == E_QUEUEFULL) {
+            reply_resend(E_QUEUEFULL);    /* not executed: the host sends it again */
+            return;
+        }
+        expected_seq++;
+    }
+#endif
+    reply(err);
 }
 
 static void receive_byte(uint8_t c)
