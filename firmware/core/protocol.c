@@ -90,7 +90,7 @@ static void put_str(const ROM char *s)
     }
 }
 
-static void put_num(void);
+static void put_u16(uint16_t v);
 
 /* End a reply line with " *<checksum>": the Fletcher sum 256 * s2 + s1 of
  * the bytes before the '*' (fletcher).  Unlike an XOR it notices a
@@ -100,9 +100,8 @@ static void put_eol(void)
 {
 #ifdef HOST_LINK
     out(' ');
-    num = tx_sum;
     hal_putc('*');
-    put_num();
+    put_u16(tx_sum);
     tx_sum = 0;
 #endif
     hal_putc('\r');
@@ -157,6 +156,13 @@ static void put_tag(char tag)
     out((uint8_t)tag);
 }
 
+/* " Q<free queue slots>" */
+static void put_free(void)
+{
+    put_tag('Q');
+    put_u16(QUEUE_FREE());
+}
+
 /* Start a new line. */
 static void line_clear(void)
 {
@@ -183,12 +189,15 @@ void protocol_init(void)
 /* "X<x> Y<y>" of pos_copy */
 static void put_position(void)
 {
+    IDATA int32_t *p = pos_copy;
     out('X');
-    num = (uint32_t)pos_copy[0];
-    put_num();
-    put_tag('Y');
-    num = (uint32_t)pos_copy[1];
-    put_num();
+    for (;;) {
+        num = (uint32_t)*p;
+        put_num();
+        if (p != pos_copy) break;
+        p++;
+        put_tag('Y');
+    }
 }
 
 #ifdef PANEL
@@ -240,8 +249,7 @@ static void report_status(void)
     HAL_CRITICAL_END();
     put_num();
 #endif
-    put_tag('Q');
-    put_u16(QUEUE_FREE());
+    put_free();
 #ifdef HOST_LINK
     put_tag('N');
     put_u16(expected_seq);
@@ -249,7 +257,10 @@ static void report_status(void)
     put_u16(st_seg.seq);
 #endif
     put_tag('P');
-    put_u16((st_port & BIT_PEN) ? 1 : 0);
+#if BIT_PEN != 0x10
+#error "the status report takes the pen from bit 4"
+#endif
+    put_u16((uint8_t)(st_port & BIT_PEN) >> 4);
 #ifdef HOST_LINK
     put_tag('U');
     put_u16(st_underruns);
@@ -262,6 +273,7 @@ static void report_status(void)
 
 const ROM char *alarm_text(void)
 {
+    if (!alarm_code) return "reset";
     return alarm_code == ALARM_ESTOP ? "alarm estop" : "alarm limit";
 }
 
@@ -482,8 +494,7 @@ static void reply(uint8_t err)
         put_tag('E');
         put_u16(err);
     } else {
-        put_tag('Q');
-        put_u16(QUEUE_FREE());
+        put_free();
     }
     put_eol();
 }
@@ -509,7 +520,8 @@ static void execute_line(void)
     end = line + line_len;
     skip_separators();
 #ifdef HOST_LINK
-    machine = (*cur == 'N') || line_star;
+    machine = 0;
+    if (*cur == 'N' || line_star) machine = 1;
     if (machine) {
         if (line_long) {
             reply_resend(E_TOOLONG);
@@ -597,15 +609,7 @@ void protocol_poll(void)
             rt_estop = 0;
             protocol_alarm(ALARM_ESTOP);
         } else {
-            stepper_abort();
-            planner_flush();
-            st_hold = 0;
-            alarm_code = 0;
-#ifdef PANEL
-            panel_stop();
-#endif
-            put_str("[reset]");
-            put_eol();
+            protocol_alarm(0);
         }
     }
     if (rt_limit) {
