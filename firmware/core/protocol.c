@@ -294,16 +294,15 @@ void protocol_alarm(uint8_t code)
 }
 
 
-static uint8_t is_separator(char c)
+/* Move the cursor past spaces, commas and tabs; 0 if there were none. */
+static uint8_t skip_separators(void)
 {
-    return c == ' ' || c == ',' || c == '\t';
-}
-
-static void skip_separators(void)
-{
-    while (is_separator(*cur)) {
+    IDATA char *start = cur;
+    char c;
+    while ((c = *cur) == ' ' || c == ',' || c == '\t') {
         cur++;
     }
+    return cur != start;
 }
 
 /* Parse one decimal integer (optional sign) at the cursor: magnitude into
@@ -323,7 +322,8 @@ static uint8_t parse_num(IDATA uint16_t *mag)
     first = cur;
     while ((d = (uint8_t)(*cur - '0')) <= 9) {
         if (acc > 6553u) return 0;
-        acc = (uint16_t)((acc << 3) + (acc << 1)) + d;
+        acc = (uint16_t)((acc << 2) + acc);   /* acc * 10 + d, without a multiply */
+        acc = (uint16_t)(acc << 1) + d;
         if (acc < d) return 0;            /* wrapped past 65535 */
         cur++;
     }
@@ -358,10 +358,9 @@ static uint8_t parse_args(void)
         if (sign == 2) arg_neg |= bit;
         bit <<= 1;
         nargs++;
-        if (cur < end && !is_separator(*cur)) {
-            return E_NUMBER;
+        if (!skip_separators() && cur < end) {
+            return E_NUMBER;              /* a number runs on into something else */
         }
-        skip_separators();
     }
     return E_OK;
 }
@@ -403,21 +402,22 @@ static uint8_t cmd_setting(void)
 }
 #endif
 
-/* The commands: letter, coordinates (the first arguments: -32767..32767,
- * the others are not negative), fewest and most arguments.  A motion
- * command's feed and exit follow its coordinates. */
+/* The commands: letter, then the fewest arguments, plus MOTION for a motion
+ * command: its coordinates (-32767..32767; the other arguments are not
+ * negative) are those arguments, then up to two more, feed and exit. */
+#define MOTION 0x80
 static const ROM char commands[] = {
-    'L', 2, 2, 4,
-    'C', 4, 4, 6,
-    'A', 4, 4, 6,
+    'L', MOTION + 2,
+    'C', MOTION + 4,
+    'A', MOTION + 4,
 #ifdef ZAXIS
-    'Z', 1, 1, 3,
+    'Z', MOTION + 1,
 #endif
-    'P', 0, 1, 1,
+    'P', 1,
 #ifdef HOST_LINK
-    'D', 0, 1, 1,
+    'D', 1,
 #endif
-    'H', 0, 0, 0,
+    'H', 0,
     0
 };
 
@@ -440,21 +440,27 @@ static uint8_t run_command(void)
 #endif
     k = parse_args();
     if (k) return k;
-    for (t = commands; ; t += 4) {
+    for (t = commands; ; t += 2) {
         if (!*t) return E_UNKNOWN;
         if (*t == cmd) break;
     }
-    t++;
-    coords = *t++;
-    if (nargs < (uint8_t)*t++) return E_ARGS;
-    if (nargs > (uint8_t)*t) return E_ARGS;
+    k = (uint8_t)t[1];
+    coords = 0;
+    if (k & MOTION) {
+        k -= MOTION;
+        coords = k;
+        if (nargs > (uint8_t)(k + 2)) return E_ARGS;
+    } else if (nargs > k) {
+        return E_ARGS;
+    }
+    if (nargs < k) return E_ARGS;
     if (arg_neg >> coords) return E_RANGE;    /* only coordinates are negative */
     a = arg_mag;
     for (k = coords; k; k--, a++, arg_neg >>= 1) {
         if (*a & 0x8000u) return E_RANGE;
         if (arg_neg & 1) *a = 0 - *a;
     }
-    if (cmd == 'P' && arg_mag[0] > 1) return E_RANGE;
+    if (cmd == 'P' && (arg_mag[0] & 0xFFFEu)) return E_RANGE;    /* 0 or 1 */
     if (cmd == 'H') {
         if (st_running || queue_used()) return E_BUSY;
         stepper_zero();
@@ -483,7 +489,9 @@ static uint8_t run_command(void)
  * machine line. */
 static void reply(uint8_t err)
 {
-    put_str(err ? "err" : "ok");
+    const ROM char *word = "ok";
+    if (err) word = "err";
+    put_str(word);
 #ifdef HOST_LINK
     if (machine) {
         put_tag('N');
@@ -511,6 +519,21 @@ static void reply_resend(uint8_t code)
 }
 #endif
 
+#ifdef HOST_LINK
+/* N<seq> <command> *<checksum>: 1 if the checksum matches and the sequence
+ * number parsed, into arg_mag[0]; the command is left in cur..end. */
+static uint8_t sequence_parsed(void)
+{
+    if (*cur != 'N' || !line_star) return 0;
+    end = line + (uint8_t)(line_star - 1);
+    cur = line + line_star;
+    if (!parse_u16() || *cur != 0 || arg_mag[0] != line_sum) return 0;
+    cur = line + 1;
+    while (*cur == ' ') cur++;
+    return parse_u16();
+}
+#endif
+
 static void execute_line(void)
 {
     uint8_t err;
@@ -527,20 +550,7 @@ static void execute_line(void)
             reply_resend(E_TOOLONG);
             return;
         }
-        /* N<seq> <command> *<checksum> */
-        if (*cur != 'N' || !line_star) {
-            reply_resend(E_CHECKSUM);
-            return;
-        }
-        end = line + (uint8_t)(line_star - 1);
-        cur = line + line_star;
-        if (!parse_u16() || *cur != 0 || arg_mag[0] != line_sum) {
-            reply_resend(E_CHECKSUM);
-            return;
-        }
-        cur = line + 1;
-        while (*cur == ' ') cur++;
-        if (!parse_u16()) {
+        if (!sequence_parsed()) {
             reply_resend(E_CHECKSUM);
             return;
         }
