@@ -225,22 +225,20 @@ void protocol_lcd(const ROM char *text)
 }
 #endif
 
-/* The states' names, each at its offset in put_str(states + offset). */
-static const ROM char states[] = "Alarm\0Hold\0Run\0Idle";
+/* A status report's start, one per state: put_str(states + its offset). */
+static const ROM char states[] = "<Alarm \0<Hold \0<Run \0<Idle ";
 
 static void report_status(void)
 {
     uint8_t state;
     stepper_snapshot();
-    out('<');
-    state = 15;
-    if (st_running) state = 11;
+    state = 21;
+    if (st_running) state = 15;
 #ifdef HOST_LINK
-    if (HOLDING) state = 6;
+    if (HOLDING) state = 8;
 #endif
     if (alarm_code) state = 0;
     put_str(states + state);
-    out(' ');
     put_position();
 #ifdef ZAXIS
     put_tag('Z');
@@ -544,8 +542,8 @@ static void execute_line(void)
     skip_separators();
 #ifdef HOST_LINK
     machine = 0;
-    if (*cur == 'N' || line_star) machine = 1;
-    if (machine) {
+    if (*cur == 'N' || line_star) {
+        machine = 1;
         if (line_long) {
             reply_resend(E_TOOLONG);
             return;
@@ -610,17 +608,18 @@ static void receive_byte(uint8_t c)
 
 void protocol_poll(void)
 {
+    uint8_t c;
     if (rt_estop || rt_reset) {
         rt_reset = 0;
         HAL_TIMER_HALT();
         rx_tail = rx_flush_to;
         line_clear();
+        c = 0;                            /* a reset */
         if (rt_estop) {
             rt_estop = 0;
-            protocol_alarm(ALARM_ESTOP);
-        } else {
-            protocol_alarm(0);
+            c = ALARM_ESTOP;
         }
+        protocol_alarm(c);
     }
     if (rt_limit) {
         rt_limit = 0;
@@ -641,7 +640,7 @@ void protocol_poll(void)
         line_long = 1;                    /* bytes were lost: the line cannot be trusted */
     }
     while (rx_tail != rx_head) {
-        uint8_t c = rx_buf[rx_tail & (RX_SIZE - 1)];
+        c = rx_buf[rx_tail & (RX_SIZE - 1)];
         rx_tail++;
         receive_byte(c);
         if (c == '\n') break;             /* let the stepper start between lines */
