@@ -341,7 +341,7 @@ static uint8_t parse_u16(void)
 /* Parse the arguments after the command letter, up to the end. */
 static uint8_t parse_args(void)
 {
-    uint8_t sign, bit = 1;
+    uint8_t sign;
     IDATA uint16_t *a = arg_mag;
     do {
         *a++ = 0;                         /* absent: 0, a motion's feed and exit too */
@@ -353,8 +353,7 @@ static uint8_t parse_args(void)
         if (nargs == 6 || !(sign = parse_num(&arg_mag[nargs]))) {
             return E_NUMBER;
         }
-        if (sign == 2) arg_neg |= bit;
-        bit <<= 1;
+        if (sign == 2) arg_neg |= (uint8_t)(1 << nargs);
         nargs++;
         if (!skip_separators() && cur < end) {
             return E_NUMBER;              /* a number runs on into something else */
@@ -422,9 +421,8 @@ static const ROM char commands[] = {
 /* The command in cur..end, as command number plan_seq. */
 static uint8_t run_command(void)
 {
-    const ROM char *t;
     IDATA uint16_t *a;
-    uint8_t k, coords;
+    uint8_t k, coords, span;
     char cmd;
     skip_separators();
     if (cur >= end) {
@@ -438,27 +436,26 @@ static uint8_t run_command(void)
 #endif
     k = parse_args();
     if (k) return k;
-    for (t = commands; ; t += 2) {
-        if (!*t) return E_UNKNOWN;
-        if (*t == cmd) break;
+    for (k = 0; ; k += 2) {
+        if (!commands[k]) return E_UNKNOWN;
+        if (commands[k] == cmd) break;
     }
-    k = (uint8_t)t[1];
+    k = (uint8_t)commands[k + 1];
     coords = 0;
+    span = 0;
     if (k & MOTION) {
         k -= MOTION;
         coords = k;
-        if (nargs > (uint8_t)(k + 2)) return E_ARGS;
-    } else if (nargs > k) {
-        return E_ARGS;
+        span = 2;                         /* feed and exit */
     }
-    if (nargs < k) return E_ARGS;
-    if (arg_neg >> coords) return E_RANGE;    /* only coordinates are negative */
+    if ((uint8_t)(nargs - k) > span) return E_ARGS;
     a = arg_mag;
     for (k = coords; k; k--, a++, arg_neg >>= 1) {
         if (*a & 0x8000u) return E_RANGE;
         if (arg_neg & 1) *a = 0 - *a;
     }
-    if (cmd == 'P' && (arg_mag[0] & 0xFFFEu)) return E_RANGE;    /* 0 or 1 */
+    if (arg_neg) return E_RANGE;          /* only coordinates are negative */
+    if (cmd == 'P' && arg_mag[0] > 1) return E_RANGE;
     if (cmd == 'H') {
         if (st_running || queue_used()) return E_BUSY;
         stepper_zero();
