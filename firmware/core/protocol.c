@@ -292,7 +292,7 @@ void protocol_alarm(uint8_t code)
 }
 
 
-/* Move the cursor past spaces, commas and tabs; 0 if there were none. */
+/* Move the cursor past spaces, commas and tabs: how many. */
 static uint8_t skip_separators(void)
 {
     IDATA char *start = cur;
@@ -300,7 +300,7 @@ static uint8_t skip_separators(void)
     while ((c = *cur) == ' ' || c == ',' || c == '\t') {
         cur++;
     }
-    return cur != start;
+    return (uint8_t)(cur - start);
 }
 
 /* Parse one decimal integer (optional sign) at the cursor: magnitude into
@@ -311,12 +311,9 @@ static uint8_t parse_num(IDATA uint16_t *mag)
     IDATA char *first;
     uint16_t acc = 0;
     uint8_t sign = 1, d;
-    if (*cur == '-') {
-        sign = 2;
-        cur++;
-    } else if (*cur == '+') {
-        cur++;
-    }
+    d = *cur;
+    if (d == '-') sign = 2;
+    if (d == '-' || d == '+') cur++;
     first = cur;
     while ((d = (uint8_t)(*cur - '0')) <= 9) {
         if (acc > 6553u) return 0;
@@ -480,19 +477,32 @@ static uint8_t run_command(void)
     return planner_pen((uint8_t)arg_mag[0]);
 }
 
+#define RESEND 0x80     /* reply(RESEND | err): "rs N<expected_seq> E<err>" */
+
 /* "ok Q<free>" or "err E<err>", with " N<seq>" after the word for a
- * machine line. */
+ * machine line; or a request to resend (RESEND). */
 static void reply(uint8_t err)
 {
     const ROM char *word = "ok";
+#ifdef HOST_LINK
+    IDATA uint16_t *seq = &plan_seq;
+#endif
     if (err) word = "err";
+#ifdef HOST_LINK
+    if (err & RESEND) {
+        word = "rs";
+        seq = &expected_seq;
+        resend_asked = 1;
+    }
+#endif
     put_str(word);
 #ifdef HOST_LINK
     if (machine) {
         put_tag('N');
-        put_u16(plan_seq);
+        put_u16(*seq);
     }
 #endif
+    err &= (uint8_t)~RESEND;
     if (err) {
         put_tag('E');
         put_u16(err);
@@ -503,25 +513,13 @@ static void reply(uint8_t err)
 }
 
 #ifdef HOST_LINK
-static void reply_resend(uint8_t code)
-{
-    put_str("rs N");
-    put_u16(expected_seq);
-    put_tag('E');
-    put_u16(code);
-    put_eol();
-    resend_asked = 1;
-}
-#endif
-
-#ifdef HOST_LINK
 /* N<seq> <command> *<checksum>: 1 if the checksum matches and the sequence
  * number parsed, into arg_mag[0]; the command is left in cur..end. */
 static uint8_t sequence_parsed(void)
 {
     if (*cur != 'N' || !line_star) return 0;
-    end = line + (uint8_t)(line_star - 1);
     cur = line + line_star;
+    end = cur - 1;
     if (!parse_u16() || *cur != 0 || arg_mag[0] != line_sum) return 0;
     cur = line + 1;
     while (*cur == ' ') cur++;
@@ -532,6 +530,9 @@ static uint8_t sequence_parsed(void)
 static void execute_line(void)
 {
     uint8_t err;
+#ifdef HOST_LINK
+    uint16_t ahead;                       /* how far plan_seq is past expected_seq */
+#endif
 
     line[line_len] = 0;
     cur = line;
@@ -542,19 +543,20 @@ static void execute_line(void)
     if (*cur == 'N' || line_star) {
         machine = 1;
         if (line_long) {
-            reply_resend(E_TOOLONG);
+            reply(RESEND | E_TOOLONG);
             return;
         }
         if (!sequence_parsed()) {
-            reply_resend(E_CHECKSUM);
+            reply(RESEND | E_CHECKSUM);
             return;
         }
         plan_seq = arg_mag[0];
-        if (plan_seq != expected_seq) {
-            if ((int16_t)(plan_seq - expected_seq) < 0) {
+        ahead = plan_seq - expected_seq;
+        if (ahead) {
+            if ((int16_t)ahead < 0) {
                 reply(E_OK);              /* already executed: acknowledge again */
             } else if (!resend_asked) {
-                reply_resend(E_SEQUENCE);
+                reply(RESEND | E_SEQUENCE);
             }
             return;
         }
@@ -571,7 +573,7 @@ static void execute_line(void)
 #ifdef HOST_LINK
     if (machine) {
         if (err == E_QUEUEFULL) {
-            reply_resend(E_QUEUEFULL);    /* not executed: the host sends it again */
+            reply(RESEND | E_QUEUEFULL);    /* not executed: the host sends it again */
             return;
         }
         expected_seq++;
