@@ -112,30 +112,27 @@ static RAMP_ROM uint32_t powers_of_ten[10] = {
     1000000000UL, 100000000UL, 10000000UL, 1000000UL, 100000UL, 10000UL, 1000UL, 100UL, 10UL, 1UL,
 };
 
-/* The decimal digit of num at powers_of_ten[k], taken off num: repeated
- * subtraction, as the 8051 has no 32-bit divide (the library's is long). */
-static uint8_t num_digit(uint8_t k)
-{
-    uint32_t p = powers_of_ten[k];
-    uint8_t d = 0;
-    while (num >= p) {
-        num -= p;
-        d++;
-    }
-    return d;
-}
-
 /* num in decimal, with a '-' if it is negative as an int32; most
- * significant digit first, so no buffer is needed. */
+ * significant digit first, so no buffer is needed.  Each digit by repeated
+ * subtraction, as the 8051 has no 32-bit divide (the library's is long). */
+static FLAG started;              /* put_num has printed a digit */
+
 static void put_num(void)
 {
-    uint8_t k, d, started = 0;
-    if ((int32_t)num < 0) {
+    uint8_t k, d;
+    uint32_t p;
+    started = 0;
+    if (num & 0x80000000UL) {           /* negative as an int32 */
         out('-');
         num = 0 - num;
     }
     for (k = 0; k < 10; k++) {
-        d = num_digit(k);
+        p = powers_of_ten[k];
+        d = 0;
+        while (num >= p) {
+            num -= p;
+            d++;
+        }
         if (d || started || k == 9) {
             out((uint8_t)('0' + d));
             started = 1;
