@@ -393,23 +393,27 @@ static uint8_t cmd_setting(void)
 }
 #endif
 
-/* The commands: letter, then the fewest arguments, plus MOTION for a motion
- * command: its coordinates (-32767..32767; the other arguments are not
- * negative) are those arguments, then up to two more, feed and exit. */
+/* The commands' letters, and for each the fewest arguments, plus MOTION
+ * for a motion command: its coordinates (-32767..32767; the other arguments
+ * are not negative) are those arguments, then up to two more, feed and exit. */
 #define MOTION 0x80
-static const ROM char commands[] = {
-    'L', MOTION + 2,
-    'C', MOTION + 4,
-    'A', MOTION + 4,
 #ifdef ZAXIS
-    'Z', MOTION + 1,
+#define Z_COMMAND "Z"
+#define Z_ARGS MOTION + 1,
+#else
+#define Z_COMMAND
+#define Z_ARGS
 #endif
-    'P', 1,
 #ifdef HOST_LINK
-    'D', 1,
+#define D_COMMAND "D"
+#define D_ARGS 1,
+#else
+#define D_COMMAND
+#define D_ARGS
 #endif
-    'H', 0,
-    0
+static const ROM char command_letters[] = "LCA" Z_COMMAND "P" D_COMMAND "H";
+static const ROM uint8_t command_args[] = {
+    MOTION + 2, MOTION + 4, MOTION + 4, Z_ARGS 1, D_ARGS 0
 };
 
 /* The command in cur..end, as command number plan_seq. */
@@ -430,11 +434,11 @@ static uint8_t run_command(void)
 #endif
     k = parse_args();
     if (k) return k;
-    for (k = 0; ; k += 2) {
-        if (!commands[k]) return E_UNKNOWN;
-        if (commands[k] == cmd) break;
+    for (k = 0; ; k++) {
+        if (!command_letters[k]) return E_UNKNOWN;
+        if (command_letters[k] == cmd) break;
     }
-    k = (uint8_t)commands[k + 1];
+    k = command_args[k];
     coords = 0;
     span = 0;
     if (k & MOTION) {
@@ -592,14 +596,16 @@ static void receive_byte(uint8_t c)
         line_long = 1;
         return;
     }
+    line[line_len++] = (char)c;
 #ifdef HOST_LINK
-    if (c == '*' && !line_star) {
-        line_star = (uint8_t)(line_len + 1);
-    } else if (!line_star) {
-        fletcher(&line_sum, c);
+    if (!line_star) {
+        if (c == '*') {
+            line_star = line_len;         /* the '*' is at line_len - 1 */
+        } else {
+            fletcher(&line_sum, c);
+        }
     }
 #endif
-    line[line_len++] = (char)c;
 }
 
 void protocol_poll(void)
