@@ -76,10 +76,10 @@ static void out(uint8_t c)
         return;
     }
 #endif
+    hal_putc(c);
 #ifdef HOST_LINK
     fletcher(&tx_sum, c);
 #endif
-    hal_putc(c);
 }
 
 static void put_str(const ROM char *s)
@@ -184,17 +184,18 @@ void protocol_init(void)
 }
 
 /* "X<x> Y<y>" of pos_copy */
+static void put_coordinate(IDATA int32_t *v)
+{
+    num = (uint32_t)*v;
+    put_num();
+}
+
 static void put_position(void)
 {
-    IDATA int32_t *p = pos_copy;
     out('X');
-    for (;;) {
-        num = (uint32_t)*p;
-        put_num();
-        if (p != pos_copy) break;
-        p++;
-        put_tag('Y');
-    }
+    put_coordinate(&pos_copy[0]);
+    put_tag('Y');
+    put_coordinate(&pos_copy[1]);
 }
 
 #ifdef PANEL
@@ -266,10 +267,15 @@ static void report_status(void)
     put_eol();
 }
 
+/* Each text at its offset: alarm_texts + offset. */
+static const ROM char alarm_texts[] = "reset\0alarm estop\0alarm limit";
+
 const ROM char *alarm_text(void)
 {
-    if (!alarm_code) return "reset";
-    return alarm_code == ALARM_ESTOP ? "alarm estop" : "alarm limit";
+    uint8_t k = 0;
+    if (alarm_code) k = 18;
+    if (alarm_code == ALARM_ESTOP) k = 6;
+    return alarm_texts + k;
 }
 
 void protocol_alarm(uint8_t code)
@@ -539,14 +545,20 @@ static void execute_line(void)
     cur = line;
     end = line + line_len;
     skip_separators();
+    err = E_TOOLONG;
 #ifdef HOST_LINK
     machine = 0;
     if (*cur == 'N' || line_star) {
         machine = 1;
-        if (line_long) {
-            reply(RESEND | E_TOOLONG);
-            return;
-        }
+        err = RESEND | E_TOOLONG;
+    }
+#endif
+    if (line_long) {
+        reply(err);
+        return;
+    }
+#ifdef HOST_LINK
+    if (machine) {
         if (!sequence_parsed()) {
             reply(RESEND | E_CHECKSUM);
             return;
@@ -564,10 +576,7 @@ static void execute_line(void)
         resend_asked = 0;
     } else
 #endif
-    if (line_long) {
-        reply(E_TOOLONG);
-        return;
-    } else {
+    {
         plan_seq = 0;
     }
     err = run_command();
