@@ -364,12 +364,14 @@ static uint8_t parse_args(void)
 
 #if defined(HOST_LINK) && !defined(PANEL)    /* the panel image's settings are fixed */
 /* $0 acceleration divisor, $1 ramp shape, $2 default feed, $3 pen delay. */
-static RAMP_ROM uint16_t setting_min[SETTINGS] = {1, 0, 15, 1};
-static RAMP_ROM uint16_t setting_max[SETTINGS] = {50, RAMP_SHAPES - 1, 65535u, 5000};
+static RAMP_ROM uint16_t setting_range[SETTINGS][2] = {   /* least, greatest */
+    {1, 50}, {0, RAMP_SHAPES - 1}, {15, 65535u}, {1, 5000},
+};
 
 static uint8_t cmd_setting(void)
 {
-    static IDATA uint8_t key;
+    const RAMP_ROM uint16_t *range;
+    uint8_t key;
     if (cur >= end) {
         for (key = 0; key < SETTINGS; key++) {
             out('$');
@@ -388,13 +390,15 @@ static uint8_t cmd_setting(void)
         put_eol();
         return E_OK;
     }
-    if (!parse_u16() || *cur != '=') return E_NUMBER;
-    key = arg_mag[0] < SETTINGS ? (uint8_t)arg_mag[0] : SETTINGS;
+    if (!parse_u16() || *cur != '=') return E_NUMBER;   /* $<key>=<value> */
     cur++;
-    if (!parse_u16() || cur != end) return E_NUMBER;
-    if (key >= SETTINGS || arg_mag[0] < setting_min[key] || arg_mag[0] > setting_max[key]) return E_RANGE;
+    if (parse_num(&arg_mag[1]) != 1 || cur != end) return E_NUMBER;
+    if (arg_mag[0] >= SETTINGS) return E_RANGE;
+    key = (uint8_t)arg_mag[0];
+    range = setting_range[key];
+    if (arg_mag[1] < range[0] || arg_mag[1] > range[1]) return E_RANGE;
     if (st_running || queue_used()) return E_BUSY;
-    setting[key] = arg_mag[0];
+    setting[key] = arg_mag[1];
     return E_OK;
 }
 #endif
