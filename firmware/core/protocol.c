@@ -146,6 +146,11 @@ static void put_u16(uint16_t v)
     put_num();
 }
 
+static void put_u8(uint8_t v)
+{
+    put_u16(v);
+}
+
 /* " <tag>", the start of a field */
 static void put_tag(char tag)
 {
@@ -157,7 +162,7 @@ static void put_tag(char tag)
 static void put_free(void)
 {
     put_tag('Q');
-    put_u16(QUEUE_FREE());
+    put_u8(QUEUE_FREE());
 }
 
 /* Start a new line. */
@@ -256,13 +261,13 @@ static void report_status(void)
 #if BIT_PEN != 0x10
 #error "the status report takes the pen from bit 4"
 #endif
-    put_u16((uint8_t)(st_port & BIT_PEN) >> 4);
+    put_u8((uint8_t)(st_port & BIT_PEN) >> 4);
 #ifdef HOST_LINK
     put_tag('U');
     put_u16(st_underruns);
 #endif
     put_tag('A');
-    put_u16(alarm_code);
+    put_u8(alarm_code);
     out('>');
     put_eol();
 }
@@ -473,9 +478,14 @@ static uint8_t run_command(void)
 #ifdef PANEL
     if (PANEL_BUSY()) return E_BUSY;      /* the panel is drawing a figure */
 #endif
-    if (coords) {                         /* a points past the coordinates */
-        arg_mag[PLAN_FEED] = a[0];
-        arg_mag[PLAN_EXIT] = a[1];
+    if (coords) {
+        /* feed and exit, after the coordinates (a), byte by byte to
+         * PLAN_FEED and PLAN_EXIT */
+        IDATA uint8_t *from = (IDATA uint8_t *)a;
+        IDATA uint8_t *to = (IDATA uint8_t *)&arg_mag[PLAN_FEED];
+        do {
+            *to++ = *from++;
+        } while (to != (IDATA uint8_t *)&arg_mag[PLAN_EXIT + 1]);
         if (cmd == 'L') return planner_line();
 #ifdef ZAXIS
         if (cmd == 'Z') return planner_z();
@@ -516,7 +526,7 @@ static void reply(uint8_t err)
     err &= (uint8_t)~RESEND;
     if (err) {
         put_tag('E');
-        put_u16(err);
+        put_u8(err);
     } else {
         put_free();
     }
