@@ -286,10 +286,10 @@ const ROM char *alarm_text(void)
 void protocol_alarm(uint8_t code)
 {
     HAL_TIMER_HALT();
+    alarm_code = code;
     stepper_abort();
     planner_flush();
     st_hold = 0;
-    alarm_code = code;
 #ifdef PANEL
     panel_stop();
 #endif
