@@ -188,13 +188,13 @@ void protocol_init(void)
     put_eol();
 }
 
-/* "X<x> Y<y>" of pos_copy */
 static void put_coordinate(IDATA int32_t *v)
 {
     num = (uint32_t)*v;
     put_num();
 }
 
+/* "X<x> Y<y>" of pos_copy */
 static void put_position(void)
 {
     out('X');
