@@ -408,13 +408,13 @@ static uint8_t cmd_setting(void)
 }
 #endif
 
-/* The commands' letters, and for each the fewest arguments, plus MOTION
+/* The commands' letters, and for each the fewest arguments, with MOTION
  * for a motion command: its coordinates (-32767..32767; the other arguments
  * are not negative) are those arguments, then up to two more, feed and exit. */
 #define MOTION 0x80
 #ifdef ZAXIS
 #define Z_COMMAND "Z"
-#define Z_ARGS MOTION + 1,
+#define Z_ARGS MOTION | 1,
 #else
 #define Z_COMMAND
 #define Z_ARGS
@@ -428,7 +428,7 @@ static uint8_t cmd_setting(void)
 #endif
 static const ROM char command_letters[] = "LCA" Z_COMMAND "P" D_COMMAND "H";
 static const ROM uint8_t command_args[] = {
-    MOTION + 2, MOTION + 4, MOTION + 4, Z_ARGS 1, D_ARGS 0
+    MOTION | 2, MOTION | 4, MOTION | 4, Z_ARGS 1, D_ARGS 0
 };
 
 /* The command in cur..end, as command number plan_seq. */
