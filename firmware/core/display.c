@@ -2,7 +2,7 @@
  * neither ever holds up the steps (seed 000, 3.3.1: refresh every few timer
  * periods):
  *   the 8-digit common-cathode 7-segment display, multiplexed one digit per
- *   tick: the right four show panel_digits, the left four stay dark;
+ *   tick: the right four show panel_segments, the left four stay dark;
  *   the LCD (HD44780, 16x2, written only): initialised one command per tick
  *   after power-up, then rewritten every LCD_PERIOD ticks by the protocol's
  *   number printing (protocol_lcd): line 1 the live X and Y in steps, line 2
@@ -12,10 +12,6 @@
 
 #ifdef PANEL
 
-/* Segments a..g on bits 0..6 (dp on bit 7), lit when 1; the last is dark. */
-static const ROM uint8_t seg_font[11] = {
-    0x3F, 0x06, 0x5B, 0x4F, 0x66, 0x6D, 0x7D, 0x07, 0x7F, 0x6F, 0x00,
-};
 /* From tick LCD_BOOT (> 15 ms after power-up): 8-bit bus, two lines (three
  * times, the first 4 ms before the others), display on without cursor,
  * cursor moving right, clear (which takes 1.6 ms). */
@@ -40,8 +36,9 @@ void display_tick(void)
         protocol_lcd(panel_text());
     }
     seg_i = (uint8_t)((seg_i + 1) & 7);
-    c = (seg_i < 4) ? DIGIT_BLANK : panel_digits[seg_i - 4];
-    HAL_SEG_SHOW(seg_i, seg_font[c]);
+    c = 0;
+    if (seg_i & 4) c = panel_segments[seg_i & 3];
+    HAL_SEG_SHOW(seg_i, c);
 }
 
 #endif

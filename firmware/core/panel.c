@@ -17,9 +17,11 @@
 
 #define DEBOUNCE   10           /* ms a key must read the same */
 #define JOG_STEPS  800          /* one jog press: 10 mm at 80 steps/mm */
-/* Jog feeds, steps/s, chosen by the faster and slower keys. */
-static const ROM uint16_t jog_feeds[] = {250, 500, 1000, 2000, 4000, 8000};
-#define JOG_FEEDS (sizeof jog_feeds / sizeof jog_feeds[0])
+/* The jog feed in units of JOG_UNIT steps/s, 1..JOG_MAX (250..8000 steps/s):
+ * the faster and slower keys double and halve it. */
+#define JOG_UNIT   250
+#define JOG_MAX    32
+#define JOG_FEED() ((uint8_t)jog * (uint8_t)JOG_UNIT)   /* mul ab: 8 x 8 bits */
 #define NOT_TYPING 3            /* entry_field when no number is being typed */
 
 /* What each key does (seed 000, figure 3.2): a jog in the MV_* directions
@@ -37,28 +39,34 @@ static const ROM uint8_t key_action[16] = {
     A_FASTER,             A_JOG | MV_YP, A_NONE,                 A_FIGURE | FIG_CAR,
     A_SLOWER,             A_JOG | MV_YN, A_NONE,                 A_FIGURE | FIG_CAR_REV,
 };
-static const ROM char *const ROM prompts[] = {
-    "Diamond", "Star", "Cone", "Car", "Car reversed",          /* FIG_* */
-    "Centre X?", "Centre Y?", "Radius?",                       /* PROMPT_ENTRY + entry_field */
-    "Ready", "Jog", "Circle", "Out of range",
-};
+/* One string after another: panel_prompt counts the strings before its
+ * own (panel_text walks to it, so there is no table of pointers). */
+static const ROM char prompts[] =
+    "Diamond\0Star\0Cone\0Car\0Car reversed\0"      /* FIG_* */
+    "Centre X?\0Centre Y?\0Radius?\0"                /* PROMPT_ENTRY + entry_field */
+    "Ready\0Jog\0Circle\0Out of range";
 #define PROMPT_ENTRY  FIGURES
 #define PROMPT_READY  (FIGURES + 3)
 #define PROMPT_JOG    (FIGURES + 4)
 #define PROMPT_CIRCLE (FIGURES + 5)
 #define PROMPT_RANGE  (FIGURES + 6)
 
-XDATA uint8_t panel_digits[4];
+XDATA uint8_t panel_segments[4];
 FAST uint8_t panel_prompt;
 volatile FLAG rt_star;
 static FLAG panel_moving;               /* a key started motion: "Ready" once it ends */
 
 static FAST uint8_t entry_field;        /* the circle's centre X, centre Y, radius: 0..2 */
 static FAST uint8_t key_last, key_count;
-static FAST uint8_t jog;                /* index of the jog feed */
+static FAST uint8_t jog;                /* the jog feed / JOG_UNIT */
 static FAST uint16_t entry;             /* the number typed */
 static XDATA uint8_t entry_n;           /* digits typed */
 static XDATA uint16_t circle[2];        /* the centre typed */
+
+/* Segments a..g on bits 0..6 (dp on bit 7), lit when 1. */
+static const ROM uint8_t seg_font[10] = {
+    0x3F, 0x06, 0x5B, 0x4F, 0x66, 0x6D, 0x7D, 0x07, 0x7F, 0x6F,
+};
 
 /* The right four digits of the 7-segment display show v (0..9999). */
 static void show_number(uint16_t v)
@@ -71,7 +79,7 @@ static void show_number(uint16_t v)
             v -= tens[k];
             d++;
         }
-        panel_digits[k] = d;
+        panel_segments[k] = seg_font[d];
     }
 }
 
@@ -80,13 +88,13 @@ static void to_menu(void)
     entry_field = NOT_TYPING;
     panel_prompt = PROMPT_READY;
     panel_moving = 0;
-    show_number(jog_feeds[jog]);
+    show_number(JOG_FEED());
 }
 
 void panel_init(void)
 {
     key_last = K_NONE;
-    jog = 3;                      /* 2000 steps/s */
+    jog = 2000 / JOG_UNIT;
     to_menu();
 }
 
@@ -118,7 +126,7 @@ static void key_motion(uint8_t a)
         if (a & MV_XN) plan_arg[0] = -JOG_STEPS;
         if (a & MV_YP) plan_arg[1] = JOG_STEPS;
         if (a & MV_YN) plan_arg[1] = -JOG_STEPS;
-        plan_arg[PLAN_FEED] = jog_feeds[jog];
+        plan_arg[PLAN_FEED] = JOG_FEED();
         plan_arg[PLAN_EXIT] = 0;
         planner_line();
         a = PROMPT_JOG;
@@ -180,8 +188,8 @@ static void key_pressed(uint8_t k)
             key_motion(a);
             return;
         }
-        if (a == A_FASTER && jog < JOG_FEEDS - 1) jog++;
-        if (a == A_SLOWER && jog) jog--;
+        if (a == A_FASTER && jog < JOG_MAX) jog <<= 1;
+        if (a == A_SLOWER && jog > 1) jog >>= 1;
         if (a != A_CIRCLE) {
             to_menu();
             return;
@@ -221,7 +229,13 @@ void panel_tick(void)
 
 const ROM char *panel_text(void)
 {
-    return alarm_code ? alarm_text() : prompts[panel_prompt];
+    const ROM char *s = prompts;
+    uint8_t n = panel_prompt;
+    if (alarm_code) return alarm_text();
+    while (n) {
+        if (!*s++) n--;
+    }
+    return s;
 }
 
 #endif

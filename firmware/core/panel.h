@@ -29,8 +29,7 @@
 #define K_CAR_REV 15
 #define K_NONE    0xFF
 
-#define DIGIT_BLANK 10
-extern XDATA uint8_t panel_digits[4];       /* the 7-segment display's right four digits */
+extern XDATA uint8_t panel_segments[4];     /* the 7-segment display's right four digits, lit segments */
 extern FAST uint8_t panel_prompt;           /* what the LCD's second line says (panel_text) */
 const ROM char *panel_text(void);           /* that line: the prompt, or the alarm */
 
