@@ -14,15 +14,18 @@
 #define FIG_CAR_REV 4
 #define FIGURES     5
 
-/* Command codes of the streams, each followed by its arguments: signed
- * bytes, in units of 2^FIG_GRID_SHIFT steps (tools/gen_figures.py, GRID). */
+/* A stream is a sequence of moves, each a code byte and its numbers:
+ * signed bytes, in units of 2^FIG_GRID_SHIFT steps (tools/gen_figures.py,
+ * GRID).  The code byte also carries the pen changes around the move. */
 #define FIG_GRID_SHIFT 5
-#define FC_END      0
-#define FC_LINE     1   /* dx dy */
-#define FC_CW       2   /* dx dy i j */
-#define FC_CCW      3
-#define FC_PEN_UP   4
-#define FC_PEN_DOWN 5
+#define FC_LINE     0x00    /* dx dy */
+#define FC_ARC      0x02    /* dx dy i j: FC_CCW, or FC_CW */
+#define FC_CCW      0x02
+#define FC_CW       0x03
+#define FC_UP       0x04    /* pen up before the move */
+#define FC_DOWN     0x08    /* pen down after it */
+#define FC_END      0x10    /* the last move of the figure */
+#define FIG_QUEUE   3       /* queue slots a move may take: pen up, the move, pen down */
 
 #define FIGURE_ROM const ROM
 extern FIGURE_ROM uint8_t fig_stream[];
@@ -33,6 +36,9 @@ extern FIGURE_ROM uint8_t *XDATA fig_next;
 #define FIGURE_PLAYING() (fig_next != 0)
 
 void figure_start(uint8_t fig);
-void figure_poll(void);         /* queue the next command if there is room */
+void figure_poll(void);         /* queue the next move if there is room */
+/* Queue the move of plan_arg (a line: dx dy; an arc: dx dy i j) at the
+ * default feed, with the pen changes of `code` (FC_*) around it. */
+void figure_move(uint8_t code);
 
 #endif

@@ -106,26 +106,37 @@ void panel_stop(void)
 
 static uint8_t motion_idle(void)
 {
-    return !st_running && !queue_used() && !FIGURE_PLAYING() && !alarm_code;
+    if (st_running || queue_used() || FIGURE_PLAYING() || alarm_code) return 0;
+    return 1;
 }
 
-/* plan_arg[k] = target - the pen's coordinate k: 0 if that is no coordinate. */
+/* plan_arg[k] = target - the pen's coordinate k: 0 if that is beyond a
+ * move's reach.  16-bit arithmetic on the position's halves: the
+ * difference fits a move when the high half plus the borrow is its sign. */
 static uint8_t to_target(uint8_t k, uint16_t target)
 {
-    int32_t d = (int32_t)target - pos_copy[k];
-    plan_arg[k] = (uint16_t)d;
-    return (int16_t)(d >> 16) == ((int16_t)d >> 15);
+    uint16_t lo = (uint16_t)pos_copy[k];
+    uint16_t hi = (uint16_t)((uint32_t)pos_copy[k] >> 16);
+    uint16_t d = target - lo;
+    plan_arg[k] = d;
+    if (target < lo) hi++;
+    return hi == (d >> 15);
+}
+
+/* A jog's steps along X for the moves MV_XP, MV_XN in m. */
+static uint16_t jog_steps(uint8_t m)
+{
+    if (m & MV_XP) return JOG_STEPS;
+    if (m & MV_XN) return (uint16_t)-JOG_STEPS;
+    return 0;
 }
 
 /* The motion a key starts while the machine stands still. */
 static void key_motion(uint8_t a)
 {
     if (a & A_JOG) {
-        plan_arg[0] = plan_arg[1] = 0;
-        if (a & MV_XP) plan_arg[0] = JOG_STEPS;
-        if (a & MV_XN) plan_arg[0] = -JOG_STEPS;
-        if (a & MV_YP) plan_arg[1] = JOG_STEPS;
-        if (a & MV_YN) plan_arg[1] = -JOG_STEPS;
+        plan_arg[0] = jog_steps(a);
+        plan_arg[1] = jog_steps(a >> 2);
         plan_arg[PLAN_FEED] = JOG_FEED();
         plan_arg[PLAN_EXIT] = 0;
         planner_line();
@@ -142,16 +153,12 @@ static void key_motion(uint8_t a)
             panel_prompt = PROMPT_RANGE;
             return;
         }
-        planner_pen(0);
-        plan_arg[PLAN_FEED] = 0;
-        plan_arg[PLAN_EXIT] = 0;
-        planner_line();
-        planner_pen(1);
+        figure_move(FC_LINE | FC_UP | FC_DOWN);
         plan_arg[0] = 0;
         plan_arg[1] = 0;
         plan_arg[2] = 0 - entry;
         plan_arg[3] = 0;
-        planner_arc(0);
+        figure_move(FC_CCW);
         planner_pen(0);
         a = PROMPT_CIRCLE;
     }
@@ -162,10 +169,13 @@ static void key_motion(uint8_t a)
 static void key_pressed(uint8_t k)
 {
     uint8_t a = key_action[k];
-    uint8_t d = (uint8_t)(((k & 3) << 2) | (k >> 2));
+    uint8_t d;
     if (entry_field != NOT_TYPING) {
+        /* column * 4 + row: bits 2..5 of the key code written twice, 0xrc */
+        d = (uint8_t)((uint8_t)(k << 4 | k) >> 2) & 0x0F;
         if (d <= 9 && entry_n < 4) {
-            entry = (entry << 3) + (entry << 1) + d;
+            entry = (uint16_t)((uint8_t)entry * (uint8_t)10)         /* mul ab, twice */
+                    + ((uint16_t)(uint8_t)((uint8_t)(entry >> 8) * (uint8_t)10) << 8) + d;
             entry_n++;
             show_number(entry);
             return;

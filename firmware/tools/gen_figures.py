@@ -10,15 +10,18 @@ number fits a signed byte (the 8 KB part has no room for more).  Arcs stay
 exact: the figures' arcs are symmetric about their centres, so the rounded
 start and end keep one radius (checked here).  A figure is stored as the
 commands the protocol would send, in a byte stream that core/figures.c
-expands into the planner's arguments (times GRID):
+expands into the planner's arguments (times GRID): a code byte, then the
+numbers of a line or an arc,
 
     FC_LINE  dx dy          a line
     FC_CW    dx dy i j      an arc about the centre (i, j) from the pen
     FC_CCW   dx dy i j
-    FC_PEN_UP / FC_PEN_DOWN
-    FC_END
 
-A figure starts and ends with the pen up at its centre.
+with the pen changes folded into the code byte of the move they go with
+(every stroke is reached by a pen-up line and begins with the pen put
+down): FC_UP, pen up before the move; FC_DOWN, pen down after it; FC_END,
+the figure ends after it.  A figure starts and ends with the pen up at its
+centre, the last move the pen-up line back to it.
 
 usage: tools/gen_figures.py build/figure_table.c       write the C table
        tools/gen_figures.py --json                       the commands, for tests
@@ -40,7 +43,8 @@ FIGURES = [            # C name, figure (centred on 0, 0; sizes in mm)
     ("FIG_CAR", lambda: geometry.car(0.0, 0.0, 40.0)),
     ("FIG_CAR_REV", lambda: geometry.reverse(geometry.car(0.0, 0.0, 40.0))),
 ]
-CODES = {"line": 1, "cw": 2, "ccw": 3, "up": 4, "down": 5, "end": 0}   # core/figures.h
+MOVES = {"line": 0x00, "ccw": 0x02, "cw": 0x03}     # core/figures.h: FC_LINE, FC_CCW, FC_CW
+FC_UP, FC_DOWN, FC_END = 0x04, 0x08, 0x10
 
 
 def steps(v: float) -> int:
@@ -86,11 +90,44 @@ def all_figures():
 
 
 def encode(commands) -> bytes:
-    data = b""
+    """The stream: each move with the pen changes around it in its code byte."""
+    moves = []              # [code, numbers]
+    up = 0
     for kind, *args in commands:
-        assert all(a % GRID == 0 and -128 <= a // GRID <= 127 for a in args), (kind, args)
-        data += bytes([CODES[kind]]) + struct.pack(f"<{len(args)}b", *(a // GRID for a in args))
+        if kind in MOVES:
+            assert all(a % GRID == 0 and -128 <= a // GRID <= 127 for a in args), (kind, args)
+            moves.append([MOVES[kind] | up, [a // GRID for a in args]])
+            up = 0
+        elif kind == "up":
+            assert not up, "pen up twice"
+            up = FC_UP
+        else:
+            assert not up and moves and moves[-1][0] & FC_UP and not moves[-1][0] & (FC_DOWN | FC_END), \
+                "the pen goes down, or the figure ends, after a pen-up move"
+            moves[-1][0] |= FC_DOWN if kind == "down" else FC_END
+    assert moves and moves[-1][0] & FC_END
+    data = b"".join(bytes([code]) + struct.pack(f"<{len(n)}b", *n) for code, n in moves)
+    assert decode(data) == commands
     return data
+
+
+def decode(data: bytes):
+    """The commands of a stream, as core/figures.c plays them."""
+    out, k = [], 0
+    kinds = {v: n for n, v in MOVES.items()}
+    while True:
+        code = data[k]
+        n = 4 if code & 2 else 2
+        numbers = [GRID * v for v in struct.unpack(f"<{n}b", data[k + 1:k + 1 + n])]
+        k += 1 + n
+        if code & FC_UP:
+            out.append(("up",))
+        out.append((kinds[code & 3], *numbers))
+        if code & FC_DOWN:
+            out.append(("down",))
+        if code & FC_END:
+            out.append(("end",))
+            return out
 
 
 def c_table(figs) -> str:
