@@ -25,20 +25,24 @@ static XDATA uint8_t seg_i;
 
 void display_tick(void)
 {
-    uint8_t c;
-    if (lcd_t < LCD_READY) {
-        if (lcd_t >= LCD_BOOT && (c = lcd_init[lcd_t - LCD_BOOT]) != 0) {
+    uint8_t c, t = lcd_t;
+    if (t < LCD_READY) {
+        lcd_t = (uint8_t)(t + 1);
+        c = (uint8_t)(t - LCD_BOOT);            /* wraps before LCD_BOOT */
+        if (c < sizeof lcd_init && (c = lcd_init[c]) != 0) {
             HAL_LCD_WRITE(c, 0);
         }
-        lcd_t++;
-    } else if (++lcd_t == LCD_READY + LCD_PERIOD) {
+    } else if (++t == LCD_READY + LCD_PERIOD) {
         lcd_t = LCD_READY;
         protocol_lcd(panel_text());
+    } else {
+        lcd_t = t;
     }
-    seg_i = (uint8_t)((seg_i + 1) & 7);
+    t = (uint8_t)((seg_i + 1) & 7);
+    seg_i = t;
     c = 0;
-    if (seg_i & 4) c = panel_segments[seg_i & 3];
-    HAL_SEG_SHOW(seg_i, c);
+    if (t & 4) c = panel_segments[(uint8_t)(t & 3)];
+    HAL_SEG_SHOW(t, c);
 }
 
 #endif

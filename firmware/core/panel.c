@@ -131,38 +131,23 @@ static uint16_t jog_steps(uint8_t m)
     return 0;
 }
 
-/* The motion a key starts while the machine stands still. */
-static void key_motion(uint8_t a)
+/* The circle of the typed centre and radius (steps from the origin): the
+ * pen up to its rightmost point, one full counter-clockwise arc. */
+static void circle_start(void)
 {
-    if (a & A_JOG) {
-        plan_arg[0] = jog_steps(a);
-        plan_arg[1] = jog_steps(a >> 2);
-        plan_arg[PLAN_FEED] = JOG_FEED();
-        plan_arg[PLAN_EXIT] = 0;
-        planner_line();
-        a = PROMPT_JOG;
-    } else if (a & A_FIGURE) {
-        a &= 0x0F;
-        figure_start(a);
-    } else {
-        /* The circle of the typed centre and radius (steps from the
-         * origin): the pen up to its rightmost point, one full
-         * counter-clockwise arc. */
-        stepper_snapshot();
-        if (!entry || !to_target(0, circle[0] + entry) || !to_target(1, circle[1])) {
-            panel_prompt = PROMPT_RANGE;
-            return;
-        }
-        figure_move(FC_LINE | FC_UP | FC_DOWN);
-        plan_arg[0] = 0;
-        plan_arg[1] = 0;
-        plan_arg[2] = 0 - entry;
-        plan_arg[3] = 0;
-        figure_move(FC_CCW);
-        planner_pen(0);
-        a = PROMPT_CIRCLE;
+    stepper_snapshot();
+    if (!entry || !to_target(0, circle[0] + entry) || !to_target(1, circle[1])) {
+        panel_prompt = PROMPT_RANGE;
+        return;
     }
-    panel_prompt = a;
+    figure_move(FC_LINE | FC_UP | FC_DOWN);
+    plan_arg[0] = 0;
+    plan_arg[1] = 0;
+    plan_arg[2] = 0 - entry;
+    plan_arg[3] = 0;
+    figure_move(FC_CCW);
+    planner_pen(0);
+    panel_prompt = PROMPT_CIRCLE;
     panel_moving = 1;
 }
 
@@ -183,7 +168,7 @@ static void key_pressed(uint8_t k)
         if (entry_field < 2) circle[entry_field] = entry;
         if (++entry_field == NOT_TYPING) {
             to_menu();
-            key_motion(A_CIRCLE);
+            circle_start();
             return;
         }
     } else if (a == A_RESET) {
@@ -194,8 +179,21 @@ static void key_pressed(uint8_t k)
         return;
     } else {
         if (!motion_idle()) return;
-        if (a & (A_JOG | A_FIGURE)) {
-            key_motion(a);
+        if (a & A_JOG) {
+            plan_arg[0] = jog_steps(a);
+            plan_arg[1] = jog_steps(a >> 2);
+            plan_arg[PLAN_FEED] = JOG_FEED();
+            plan_arg[PLAN_EXIT] = 0;
+            planner_line();
+            panel_prompt = PROMPT_JOG;
+            panel_moving = 1;
+            return;
+        }
+        if (a & A_FIGURE) {
+            a &= 0x0F;
+            figure_start(a);
+            panel_prompt = a;             /* its name */
+            panel_moving = 1;
             return;
         }
         if (a == A_FASTER && jog < JOG_MAX) jog <<= 1;
@@ -218,7 +216,7 @@ void panel_tick(void)
     if (k != key_last) {
         key_last = k;
         key_count = 0;
-    } else if (key_count < DEBOUNCE && ++key_count == DEBOUNCE && k != K_NONE) {
+    } else if (key_count < DEBOUNCE && ++key_count == DEBOUNCE && k < KEYS) {
         key_pressed(k);
     }
     if (HAL_ESTOP_ACTIVE() && alarm_code != ALARM_ESTOP && !rt_estop) {

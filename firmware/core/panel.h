@@ -27,6 +27,7 @@
 #define K_SLOWER  12
 #define K_YN      13
 #define K_CAR_REV 15
+#define KEYS      16    /* HAL_KEY_SCAN: no key (or several) is K_NONE or another code above */
 #define K_NONE    0xFF
 
 extern XDATA uint8_t panel_segments[4];     /* the 7-segment display's right four digits, lit segments */
