@@ -18,10 +18,18 @@
 #define LCD_BOOT 20
 static const ROM uint8_t lcd_init[12] = {0x38, 0, 0, 0, 0, 0x38, 0x38, 0x0C, 0x06, 0x01, 0, 0};
 #define LCD_READY (LCD_BOOT + sizeof lcd_init)
-#define LCD_PERIOD 100              /* ms: ten refreshes a second */
+#define LCD_PERIOD 96               /* ms: about ten refreshes a second */
 
-static XDATA uint8_t lcd_t;         /* ticks since power-up, then since the last refresh */
-static XDATA uint8_t seg_i;
+/* Ticks since power-up, then LCD_READY + ticks since the last refresh.
+ * LCD_READY and LCD_PERIOD are multiples of 8, so its low 3 bits count
+ * on without a break: they pick the 7-segment digit. */
+static XDATA uint8_t lcd_t;
+typedef char lcd_t_counts_the_digit[(LCD_READY % 8 == 0 && LCD_PERIOD % 8 == 0) ? 1 : -1];
+
+void display_init(void)
+{
+    lcd_t = 0;
+}
 
 void display_tick(void)
 {
@@ -38,8 +46,7 @@ void display_tick(void)
     } else {
         lcd_t = t;
     }
-    t = (uint8_t)((seg_i + 1) & 7);
-    seg_i = t;
+    t = (uint8_t)(lcd_t & 7);
     c = 0;
     if (t & 4) c = panel_segments[(uint8_t)(t & 3)];
     HAL_SEG_SHOW(t, c);

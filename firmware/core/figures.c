@@ -5,35 +5,39 @@
 
 #ifdef PANEL
 
-FIGURE_ROM uint8_t *XDATA fig_next;
-
-void figure_start(uint8_t fig)
-{
-    fig_next = &fig_stream[fig_first[fig]];
-}
+XDATA uint8_t fig_next;
 
 void figure_move(uint8_t code)
 {
+    IDATA uint8_t *p = (IDATA uint8_t *)&plan_arg[PLAN_FEED];
     if (code & FC_UP) planner_pen(0);
-    plan_arg[PLAN_FEED] = 0;        /* the default feed, $2 */
-    plan_arg[PLAN_EXIT] = 0;
+    do {
+        *p++ = 0;                   /* the default feed ($2), and stop at the end */
+    } while (p != (IDATA uint8_t *)&plan_arg[PLAN_EXIT + 1]);
     if (code & FC_ARC) planner_arc(code & 1); else planner_line();
     if (code & FC_DOWN) planner_pen(1);
 }
 
 void figure_poll(void)
 {
-    FIGURE_ROM uint8_t *p = fig_next;
     IDATA uint16_t *arg = plan_arg;
-    uint8_t code, n;
-    if (!p || queue_used() > QUEUE_SIZE - FIG_QUEUE) return;
-    code = *p++;
+    uint8_t i, code, n, zero;
+    if (queue_used() > QUEUE_SIZE - FIG_QUEUE || !(i = fig_next)) return;
+    code = fig_stream[i];
+    zero = code;
     n = (uint8_t)((code & FC_ARC) + 2);     /* FC_ARC is 2: 4 numbers, else 2 */
     do {
-        *arg++ = (uint16_t)((int16_t)(int8_t)*p++ << FIG_GRID_SHIFT);
+        *arg = 0;
+        if (!(zero & FC_ZERO)) {
+            i++;
+            *arg = (uint16_t)((int16_t)(int8_t)fig_stream[i] << FIG_GRID_SHIFT);
+        }
+        arg++;
+        zero >>= 1;
     } while (--n);
-    if (code & FC_END) p = 0;
-    fig_next = p;
+    i++;
+    if (code & FC_END) i = 0;
+    fig_next = i;
     figure_move(code);
 }
 

@@ -91,17 +91,19 @@ static void to_menu(void)
     show_number(JOG_FEED());
 }
 
-void panel_init(void)
-{
-    key_last = K_NONE;
-    jog = 2000 / JOG_UNIT;
-    to_menu();
-}
-
 void panel_stop(void)
 {
     fig_next = 0;
     to_menu();
+}
+
+/* External RAM is not cleared at power-up: what needs a start value gets it. */
+void panel_init(void)
+{
+    key_last = K_NONE;
+    jog = 2000 / JOG_UNIT;
+    display_init();
+    panel_stop();
 }
 
 static uint8_t motion_idle(void)
@@ -135,79 +137,97 @@ static uint16_t jog_steps(uint8_t m)
  * pen up to its rightmost point, one full counter-clockwise arc. */
 static void circle_start(void)
 {
+    IDATA uint16_t *p;
     stepper_snapshot();
     if (!entry || !to_target(0, circle[0] + entry) || !to_target(1, circle[1])) {
         panel_prompt = PROMPT_RANGE;
         return;
     }
     figure_move(FC_LINE | FC_UP | FC_DOWN);
-    plan_arg[0] = 0;
-    plan_arg[1] = 0;
+    p = plan_arg;
+    do {
+        *p++ = 0;
+    } while (p != &plan_arg[4]);
     plan_arg[2] = 0 - entry;
-    plan_arg[3] = 0;
     figure_move(FC_CCW);
     planner_pen(0);
     panel_prompt = PROMPT_CIRCLE;
     panel_moving = 1;
 }
 
+/* The next number of the circle, from 0000. */
+static void new_number(void)
+{
+    entry = 0;
+    entry_n = 0;
+    show_number(0);
+    panel_prompt = PROMPT_ENTRY + entry_field;
+}
+
+/* A key while a number is typed: a digit shifts in, any other key (or a
+ * fifth digit) takes the number. */
+static void key_typed(uint8_t k)
+{
+    /* column * 4 + row: bits 2..5 of the key code written twice, 0xrc */
+    k = (uint8_t)((uint8_t)(k * (uint8_t)0x11) >> 2) & 0x0F;
+    if (k <= 9 && entry_n < 4) {
+        /* entry * 10 + the digit, by two 8 x 8 bit products (mul ab) */
+        entry = (uint16_t)((uint8_t)entry * (uint8_t)10)
+                + ((uint16_t)(uint8_t)((uint8_t)(entry >> 8) * (uint8_t)10) << 8) + k;
+        entry_n++;
+        show_number(entry);
+        return;
+    }
+    if (entry_field < 2) circle[entry_field] = entry;
+    if (++entry_field == NOT_TYPING) {
+        to_menu();
+        circle_start();
+        return;
+    }
+    new_number();
+}
+
 static void key_pressed(uint8_t k)
 {
-    uint8_t a = key_action[k];
-    uint8_t d;
+    uint8_t a;
     if (entry_field != NOT_TYPING) {
-        /* column * 4 + row: bits 2..5 of the key code written twice, 0xrc */
-        d = (uint8_t)((uint8_t)(k << 4 | k) >> 2) & 0x0F;
-        if (d <= 9 && entry_n < 4) {
-            entry = (uint16_t)((uint8_t)entry * (uint8_t)10)         /* mul ab, twice */
-                    + ((uint16_t)(uint8_t)((uint8_t)(entry >> 8) * (uint8_t)10) << 8) + d;
-            entry_n++;
-            show_number(entry);
-            return;
-        }
-        if (entry_field < 2) circle[entry_field] = entry;
-        if (++entry_field == NOT_TYPING) {
-            to_menu();
-            circle_start();
-            return;
-        }
-    } else if (a == A_RESET) {
+        key_typed(k);
+        return;
+    }
+    a = key_action[k];
+    if (a == A_RESET) {
         if (motion_idle()) {              /* standing still: clear the coordinates */
             stepper_zero();
         }
         RT_STOP(rt_reset);                /* moving: stop at once, as Ctrl-X does */
         return;
-    } else {
-        if (!motion_idle()) return;
-        if (a & A_JOG) {
-            plan_arg[0] = jog_steps(a);
-            plan_arg[1] = jog_steps(a >> 2);
-            plan_arg[PLAN_FEED] = JOG_FEED();
-            plan_arg[PLAN_EXIT] = 0;
-            planner_line();
-            panel_prompt = PROMPT_JOG;
-            panel_moving = 1;
-            return;
-        }
-        if (a & A_FIGURE) {
-            a &= 0x0F;
-            figure_start(a);
-            panel_prompt = a;             /* its name */
-            panel_moving = 1;
-            return;
-        }
-        if (a == A_FASTER && jog < JOG_MAX) jog <<= 1;
-        if (a == A_SLOWER && jog > 1) jog >>= 1;
-        if (a != A_CIRCLE) {
-            to_menu();
-            return;
-        }
-        entry_field = 0;
     }
-    entry = 0;                            /* the next number, from 0000 */
-    entry_n = 0;
-    show_number(0);
-    panel_prompt = PROMPT_ENTRY + entry_field;
+    if (!motion_idle()) return;
+    if (a & A_JOG) {
+        plan_arg[0] = jog_steps(a);
+        plan_arg[1] = jog_steps(a >> 2);
+        plan_arg[PLAN_FEED] = JOG_FEED();
+        plan_arg[PLAN_EXIT] = 0;
+        planner_line();
+        panel_prompt = PROMPT_JOG;
+        panel_moving = 1;
+        return;
+    }
+    if (a & A_FIGURE) {
+        a &= 0x0F;
+        panel_prompt = a;                 /* its name */
+        panel_moving = 1;
+        FIGURE_START(a);
+        return;
+    }
+    if (a == A_FASTER && jog < JOG_MAX) jog <<= 1;
+    if (a == A_SLOWER && jog > 1) jog >>= 1;
+    if (a != A_CIRCLE) {
+        to_menu();
+        return;
+    }
+    entry_field = 0;
+    new_number();
 }
 
 void panel_tick(void)
@@ -215,8 +235,8 @@ void panel_tick(void)
     uint8_t k = HAL_KEY_SCAN();
     if (k != key_last) {
         key_last = k;
-        key_count = 0;
-    } else if (key_count < DEBOUNCE && ++key_count == DEBOUNCE && k < KEYS) {
+        key_count = DEBOUNCE;             /* counts down the readings left */
+    } else if (key_count && !--key_count && k < KEYS) {
         key_pressed(k);
     }
     if (HAL_ESTOP_ACTIVE() && alarm_code != ALARM_ESTOP && !rt_estop) {

@@ -40,7 +40,8 @@ void panel_stop(void);      /* after a reset or an alarm: back to the menu */
 #define PANEL_BUSY() FIGURE_PLAYING()
 #include "figures.h"
 
-void display_tick(void);    /* display.c: one LCD byte and one 7-segment digit */
+void display_init(void);    /* display.c: the LCD's start-up sequence from the next tick */
+void display_tick(void);    /* one LCD byte and one 7-segment digit */
 #else
 #define PANEL_BUSY() 0
 #endif

@@ -34,7 +34,7 @@ void uart_isr(void) __interrupt(4)
 
 void hal_putc(uint8_t c)
 {
-    while ((uint8_t)(tx_head - tx_tail) >= TX_SIZE) {
+    while ((uint8_t)(tx_head - tx_tail) & TX_SIZE) {   /* full: TX_SIZE bytes, never more */
         /* the transmit interrupt drains the ring; steps go on meanwhile */
     }
     tx_buf[tx_head & (TX_SIZE - 1)] = c;
