@@ -11,11 +11,11 @@ void figure_move(uint8_t code)
 {
     IDATA uint8_t *p = (IDATA uint8_t *)&plan_arg[PLAN_FEED];
     if (code & FC_UP) planner_pen(0);
+    if (code & FC_DOWN) planner_pen(1);
     do {
         *p++ = 0;                   /* the default feed ($2), and stop at the end */
     } while (p != (IDATA uint8_t *)&plan_arg[PLAN_EXIT + 1]);
     if (code & FC_ARC) planner_arc(code & 1); else planner_line();
-    if (code & FC_DOWN) planner_pen(1);
 }
 
 void figure_poll(void)

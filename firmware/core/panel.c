@@ -125,14 +125,6 @@ static uint8_t to_target(uint8_t k, uint16_t target)
     return hi == (d >> 15);
 }
 
-/* A jog's steps along X for the moves MV_XP, MV_XN in m. */
-static uint16_t jog_steps(uint8_t m)
-{
-    if (m & MV_XP) return JOG_STEPS;
-    if (m & MV_XN) return (uint16_t)-JOG_STEPS;
-    return 0;
-}
-
 /* The circle of the typed centre and radius (steps from the origin): the
  * pen up to its rightmost point, one full counter-clockwise arc. */
 static void circle_start(void)
@@ -143,13 +135,13 @@ static void circle_start(void)
         panel_prompt = PROMPT_RANGE;
         return;
     }
-    figure_move(FC_LINE | FC_UP | FC_DOWN);
+    figure_move(FC_LINE | FC_UP);
     p = plan_arg;
     do {
         *p++ = 0;
     } while (p != &plan_arg[4]);
     plan_arg[2] = 0 - entry;
-    figure_move(FC_CCW);
+    figure_move(FC_CCW | FC_DOWN);
     planner_pen(0);
     panel_prompt = PROMPT_CIRCLE;
     panel_moving = 1;
@@ -178,7 +170,7 @@ static void key_typed(uint8_t k)
         show_number(entry);
         return;
     }
-    if (entry_field < 2) circle[entry_field] = entry;
+    if (!(entry_field & 2)) circle[entry_field] = entry;   /* the centre: fields 0, 1 */
     if (++entry_field == NOT_TYPING) {
         to_menu();
         circle_start();
@@ -189,6 +181,7 @@ static void key_typed(uint8_t k)
 
 static void key_pressed(uint8_t k)
 {
+    IDATA uint16_t *p;
     uint8_t a;
     if (entry_field != NOT_TYPING) {
         key_typed(k);
@@ -204,8 +197,14 @@ static void key_pressed(uint8_t k)
     }
     if (!motion_idle()) return;
     if (a & A_JOG) {
-        plan_arg[0] = jog_steps(a);
-        plan_arg[1] = jog_steps(a >> 2);
+        p = plan_arg;                     /* X, then Y: MV_XP, MV_XN, then MV_YP, MV_YN */
+        do {
+            *p = 0;
+            if (a & MV_XP) *p = JOG_STEPS;
+            if (a & MV_XN) *p = (uint16_t)-JOG_STEPS;
+            p++;
+            a >>= 2;
+        } while (p != &plan_arg[2]);
         plan_arg[PLAN_FEED] = JOG_FEED();
         plan_arg[PLAN_EXIT] = 0;
         planner_line();

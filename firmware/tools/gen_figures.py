@@ -17,10 +17,8 @@ numbers of a line or an arc,
     FC_CW    dx dy i j      an arc about the centre (i, j) from the pen
     FC_CCW   dx dy i j
 
-with the pen changes folded into the code byte of the move they go with
-(every stroke is reached by a pen-up line and begins with the pen put
-down): FC_UP, pen up before the move; FC_DOWN, pen down after it; FC_END,
-the figure ends after it.  Bits FC_ZERO << k (k = 0..2: dx, dy, i) stand
+with a pen change folded into the code byte of the move it comes before
+(FC_UP, pen up; FC_DOWN, pen down) and FC_END on the last move.  Bits FC_ZERO << k (k = 0..2: dx, dy, i) stand
 for a number that is 0 and left out.  A figure starts and ends with the pen up at its
 centre, the last move the pen-up line back to it.
 
@@ -91,22 +89,21 @@ def all_figures():
 
 
 def encode(commands) -> bytes:
-    """The stream: each move with the pen changes around it in its code byte,
+    """The stream: each move with the pen change before it in its code byte,
     and its numbers but those of the first three that are 0."""
     moves = []              # [code, numbers]
-    up = 0
+    pen = 0
     for kind, *args in commands:
         if kind in MOVES:
             assert all(a % GRID == 0 and -128 <= a // GRID <= 127 for a in args), (kind, args)
-            moves.append([MOVES[kind] | up, [a // GRID for a in args]])
-            up = 0
-        elif kind == "up":
-            assert not up, "pen up twice"
-            up = FC_UP
+            moves.append([MOVES[kind] | pen, [a // GRID for a in args]])
+            pen = 0
+        elif kind in ("up", "down"):
+            assert not pen, "one pen change before a move"
+            pen = FC_UP if kind == "up" else FC_DOWN
         else:
-            assert not up and moves and moves[-1][0] & FC_UP and not moves[-1][0] & (FC_DOWN | FC_END), \
-                "the pen goes down, or the figure ends, after a pen-up move"
-            moves[-1][0] |= FC_DOWN if kind == "down" else FC_END
+            assert kind == "end" and not pen and moves, "a figure ends after a move"
+            moves[-1][0] |= FC_END
     assert moves and moves[-1][0] & FC_END
     data = b""
     for code, numbers in moves:
@@ -137,9 +134,9 @@ def decode(data: bytes):
                 k += 1
         if code & FC_UP:
             out.append(("up",))
-        out.append((kinds[code & 3], *numbers))
         if code & FC_DOWN:
             out.append(("down",))
+        out.append((kinds[code & 3], *numbers))
         if code & FC_END:
             out.append(("end",))
             return out

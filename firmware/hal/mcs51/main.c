@@ -51,7 +51,7 @@ void hal_putc(uint8_t c)
  * work may wait, the steps may not). */
 #define TICK_RELOAD ((uint16_t)(0 - 922))   /* 922 machine cycles: 1.0004 ms */
 #ifdef BAUD_115200
-#define TICK_INIT() (TR1 = 1)
+#define TICK_INIT()                         /* TR1 in TCON_INIT */
 #define TICK_DUE() (TF1 && (TF1 = 0, TH1 = (uint8_t)(TICK_RELOAD >> 8), TL1 = (uint8_t)TICK_RELOAD, 1))
 #else
 #define TICK_INIT() (RCAP2H = (uint8_t)(TICK_RELOAD >> 8), RCAP2L = (uint8_t)TICK_RELOAD, TR2 = 1)
@@ -66,6 +66,22 @@ void hal_putc(uint8_t c)
 #define TMOD_INIT 0x11
 #else
 #define TMOD_INIT 0x21
+#endif
+/* Timer 1 runs (TR1) for the baud rate or the tick; the e-stop's INT0 is
+ * edge-triggered (IT0).  Timer 0 (the steps) and the e-stop have the high
+ * priority, the UART the low; all three enabled once EA is set. */
+#ifdef PANEL
+#define TCON_INIT 0x41              /* TR1, IT0 */
+#define IP_INIT   0x03              /* PT0, PX0 */
+#define IE_INIT   0x13              /* ES, ET0, EX0 */
+#else
+#ifdef BAUD_115200
+#define TCON_INIT 0x00
+#else
+#define TCON_INIT 0x40
+#endif
+#define IP_INIT   0x02
+#define IE_INIT   0x12
 #endif
 
 #ifdef PANEL
@@ -112,8 +128,6 @@ uint8_t hal_key_scan(void)
 void main(void)
 {
     TMOD = TMOD_INIT;
-    PT0 = 1;                      /* steps preempt the UART */
-    ET0 = 1;
     SCON = 0x50;                  /* UART mode 1: 8 data bits, receiver on */
 #ifdef BAUD_115200
     RCAP2H = 0xFF;                /* Timer 2 as baud generator: 11.0592 MHz / 32 / 3 */
@@ -122,14 +136,12 @@ void main(void)
 #else
     TH1 = 0xFD;                   /* 9600 baud */
     TL1 = 0xFD;
-    TR1 = 1;
 #endif
-    ES = 1;
+    TCON = TCON_INIT;
+    IP = IP_INIT;
+    IE = IE_INIT;
     stepper_init();
 #ifdef PANEL
-    IT0 = 1;                      /* e-stop: falling edge */
-    PX0 = 1;
-    EX0 = 1;
     TICK_INIT();
     panel_init();
 #endif
