@@ -6,12 +6,12 @@
 #ifdef PANEL
 
 XDATA uint8_t fig_next;
+typedef char fc_down_is_bit_3[FC_DOWN == 1 << 3 ? 1 : -1];
 
 void figure_move(uint8_t code)
 {
     IDATA uint8_t *p = (IDATA uint8_t *)&plan_arg[PLAN_FEED];
-    if (code & FC_UP) planner_pen(0);
-    if (code & FC_DOWN) planner_pen(1);
+    if (code & (FC_UP | FC_DOWN)) planner_pen((uint8_t)(code >> 3) & 1);   /* FC_DOWN is bit 3 */
     do {
         *p++ = 0;                   /* the default feed ($2), and stop at the end */
     } while (p != (IDATA uint8_t *)&plan_arg[PLAN_EXIT + 1]);

@@ -18,9 +18,10 @@ numbers of a line or an arc,
     FC_CCW   dx dy i j
 
 with a pen change folded into the code byte of the move it comes before
-(FC_UP, pen up; FC_DOWN, pen down) and FC_END on the last move.  Bits FC_ZERO << k (k = 0..2: dx, dy, i) stand
-for a number that is 0 and left out.  A figure starts and ends with the pen up at its
-centre, the last move the pen-up line back to it.
+(FC_UP, pen up; FC_DOWN, pen down) and FC_END on the last move.  Bits
+FC_ZERO << k (k = 0..2: dx, dy, i) stand for a number that is 0 and left
+out.  A figure starts and ends with the pen up at its centre.  fig_stream
+begins with the index of each figure's first move, a byte each.
 
 usage: tools/gen_figures.py build/figure_table.c       write the C table
        tools/gen_figures.py --json                       the commands, for tests

@@ -67,9 +67,9 @@ void hal_putc(uint8_t c)
 #else
 #define TMOD_INIT 0x21
 #endif
-/* Timer 1 runs (TR1) for the baud rate or the tick; the e-stop's INT0 is
- * edge-triggered (IT0).  Timer 0 (the steps) and the e-stop have the high
- * priority, the UART the low; all three enabled once EA is set. */
+/* Timer 1 runs (TR1) for the baud rate or the panel's tick; the panel's
+ * e-stop (INT0) is edge-triggered (IT0).  Timer 0 (the steps) and the e-stop
+ * have the high priority, the UART the low; they run once EA is set. */
 #ifdef PANEL
 #define TCON_INIT 0x41              /* TR1, IT0 */
 #define IP_INIT   0x03              /* PT0, PX0 */
