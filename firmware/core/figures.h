@@ -1,6 +1,6 @@
 /* figures.h - the panel's built-in figures: command streams in ROM
  * (tools/gen_figures.py makes them from the host's own shapes) and the
- * player that queues them one command at a time. */
+ * player that queues them one move at a time. */
 #ifndef FIGURES_H
 #define FIGURES_H
 
@@ -38,7 +38,7 @@ extern FIGURE_ROM uint8_t fig_stream[];
 extern XDATA uint8_t fig_next;
 #define FIGURE_PLAYING() (fig_next != 0)
 
-#define FIGURE_START(fig) (fig_next = fig_stream[fig])
+#define FIGURE_START(fig) (fig_next = fig_stream[fig])     /* fig: FIG_* */
 void figure_poll(void);         /* queue the next move if there is room */
 /* Queue the move of plan_arg (a line: dx dy; an arc: dx dy i j) at the
  * default feed, after the pen change of `code` (FC_*). */
