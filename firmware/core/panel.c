@@ -39,17 +39,55 @@ static const ROM uint8_t key_action[16] = {
     A_FASTER,             A_JOG | MV_YP, A_NONE,                 A_FIGURE | FIG_CAR,
     A_SLOWER,             A_JOG | MV_YN, A_NONE,                 A_FIGURE | FIG_CAR_REV,
 };
-/* One string after another: panel_prompt counts the strings before its
- * own (panel_text walks to it, so there is no table of pointers). */
+/* The prompts, one string after another; panel_prompt is the offset of
+ * its own.  SDCC would store a string again for each sizeof of it, so the
+ * offsets are written out, and the host build checks them. */
+#define T_DIAMOND  "Diamond"
+#define T_STAR     "Star"
+#define T_CONE     "Cone"
+#define T_CAR      "Car"
+#define T_CAR_REV  "Car reversed"
+#define T_CENTRE_X "Centre X?"
+#define T_CENTRE_Y "Centre Y?"
+#define T_RADIUS   "Radius?"
+#define T_READY    "Ready"
+#define T_JOG      "Jog"
+#define T_CIRCLE   "Circle"
+#define T_RANGE    "Out of range"
 static const ROM char prompts[] =
-    "Diamond\0Star\0Cone\0Car\0Car reversed\0"      /* FIG_* */
-    "Centre X?\0Centre Y?\0Radius?\0"                /* PROMPT_ENTRY + entry_field */
-    "Ready\0Jog\0Circle\0Out of range";
-#define PROMPT_ENTRY  FIGURES
-#define PROMPT_READY  (FIGURES + 3)
-#define PROMPT_JOG    (FIGURES + 4)
-#define PROMPT_CIRCLE (FIGURES + 5)
-#define PROMPT_RANGE  (FIGURES + 6)
+    T_DIAMOND "\0" T_STAR "\0" T_CONE "\0" T_CAR "\0" T_CAR_REV "\0"
+    T_CENTRE_X "\0" T_CENTRE_Y "\0" T_RADIUS "\0"
+    T_READY "\0" T_JOG "\0" T_CIRCLE "\0" T_RANGE;
+#define P_DIAMOND  0
+#define P_STAR     8
+#define P_CONE     13
+#define P_CAR      18
+#define P_CAR_REV  22
+#define P_CENTRE_X 35
+#define P_CENTRE_Y 45
+#define P_RADIUS   55
+#define P_READY    63
+#define P_JOG      69
+#define P_CIRCLE   73
+#define P_RANGE    80
+#define P_FIELD    10       /* the three numbers' prompts: P_CENTRE_X + entry_field * P_FIELD */
+#ifndef __SDCC
+#define PROMPT_AFTER(p, t, q) typedef char prompt_##q##_offset[(p) + sizeof t == (q) ? 1 : -1]
+PROMPT_AFTER(P_DIAMOND, T_DIAMOND, P_STAR);
+PROMPT_AFTER(P_STAR, T_STAR, P_CONE);
+PROMPT_AFTER(P_CONE, T_CONE, P_CAR);
+PROMPT_AFTER(P_CAR, T_CAR, P_CAR_REV);
+PROMPT_AFTER(P_CAR_REV, T_CAR_REV, P_CENTRE_X);
+PROMPT_AFTER(P_CENTRE_X, T_CENTRE_X, P_CENTRE_Y);
+PROMPT_AFTER(P_CENTRE_Y, T_CENTRE_Y, P_RADIUS);
+PROMPT_AFTER(P_RADIUS, T_RADIUS, P_READY);
+PROMPT_AFTER(P_READY, T_READY, P_JOG);
+PROMPT_AFTER(P_JOG, T_JOG, P_CIRCLE);
+PROMPT_AFTER(P_CIRCLE, T_CIRCLE, P_RANGE);
+typedef char prompts_of_the_fields_are_evenly_spaced[
+    P_CENTRE_Y - P_CENTRE_X == P_FIELD && P_RADIUS - P_CENTRE_Y == P_FIELD ? 1 : -1];
+#endif
+static const ROM uint8_t figure_prompt[FIGURES] = {P_DIAMOND, P_STAR, P_CONE, P_CAR, P_CAR_REV};  /* FIG_* */
 
 XDATA uint8_t panel_segments[4];
 FAST uint8_t panel_prompt;
@@ -86,7 +124,7 @@ static void show_number(uint16_t v)
 static void to_menu(void)
 {
     entry_field = NOT_TYPING;
-    panel_prompt = PROMPT_READY;
+    panel_prompt = P_READY;
     panel_moving = 0;
     show_number(JOG_FEED());
 }
@@ -132,7 +170,7 @@ static void circle_start(void)
     IDATA uint16_t *p;
     stepper_snapshot();
     if (!entry || !to_target(0, circle[0] + entry) || !to_target(1, circle[1])) {
-        panel_prompt = PROMPT_RANGE;
+        panel_prompt = P_RANGE;
         return;
     }
     figure_move(FC_LINE | FC_UP);
@@ -143,7 +181,7 @@ static void circle_start(void)
     plan_arg[2] = 0 - entry;
     figure_move(FC_CCW | FC_DOWN);
     planner_pen(0);
-    panel_prompt = PROMPT_CIRCLE;
+    panel_prompt = P_CIRCLE;
     panel_moving = 1;
 }
 
@@ -153,7 +191,7 @@ static void new_number(void)
     entry = 0;
     entry_n = 0;
     show_number(0);
-    panel_prompt = PROMPT_ENTRY + entry_field;
+    panel_prompt = (uint8_t)(P_CENTRE_X + (uint8_t)(entry_field * (uint8_t)P_FIELD));
 }
 
 /* A key while a number is typed: a digit shifts in, any other key (or a
@@ -208,13 +246,13 @@ static void key_pressed(uint8_t k)
         plan_arg[PLAN_FEED] = JOG_FEED();
         plan_arg[PLAN_EXIT] = 0;
         planner_line();
-        panel_prompt = PROMPT_JOG;
+        panel_prompt = P_JOG;
         panel_moving = 1;
         return;
     }
     if (a & A_FIGURE) {
         a &= 0x0F;
-        panel_prompt = a;                 /* its name */
+        panel_prompt = figure_prompt[a];
         panel_moving = 1;
         FIGURE_START(a);
         return;
@@ -256,13 +294,8 @@ void panel_tick(void)
 
 const ROM char *panel_text(void)
 {
-    const ROM char *s = prompts;
-    uint8_t n = panel_prompt;
     if (alarm_code) return alarm_text();
-    while (n) {
-        if (!*s++) n--;
-    }
-    return s;
+    return &prompts[panel_prompt];
 }
 
 #endif

@@ -31,7 +31,7 @@
 #define K_NONE    0xFF
 
 extern XDATA uint8_t panel_segments[4];     /* the 7-segment display's right four digits, lit segments */
-extern FAST uint8_t panel_prompt;           /* what the LCD's second line says (panel_text) */
+extern FAST uint8_t panel_prompt;           /* the LCD's second line: its offset in the prompts (panel_text) */
 const ROM char *panel_text(void);           /* that line: the prompt, or the alarm */
 
 void panel_init(void);
