@@ -23,13 +23,8 @@ static const ROM uint8_t lcd_init[12] = {0x38, 0, 0, 0, 0, 0x38, 0x38, 0x0C, 0x0
 /* Ticks since power-up, then LCD_READY + ticks since the last refresh.
  * LCD_READY and LCD_PERIOD are multiples of 8, so its low 3 bits count
  * on without a break: they pick the 7-segment digit. */
-static XDATA uint8_t lcd_t;
+XDATA uint8_t lcd_t;
 typedef char lcd_t_counts_the_digit[(LCD_READY % 8 == 0 && LCD_PERIOD % 8 == 0) ? 1 : -1];
-
-void display_init(void)
-{
-    lcd_t = 0;
-}
 
 void display_tick(void)
 {

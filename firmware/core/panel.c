@@ -140,7 +140,7 @@ void panel_init(void)
 {
     key_last = K_NONE;
     jog = 2000 / JOG_UNIT;
-    display_init();
+    DISPLAY_INIT();
     panel_stop();
 }
 

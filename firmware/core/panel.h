@@ -40,8 +40,9 @@ void panel_stop(void);      /* after a reset or an alarm: back to the menu */
 #define PANEL_BUSY() FIGURE_PLAYING()
 #include "figures.h"
 
-void display_init(void);    /* display.c: the LCD's start-up sequence from the next tick */
-void display_tick(void);    /* one LCD byte and one 7-segment digit */
+extern XDATA uint8_t lcd_t;     /* display.c: ticks since power-up, then since the last refresh */
+#define DISPLAY_INIT() (lcd_t = 0)      /* the LCD's start-up sequence from the next tick */
+void display_tick(void);        /* one LCD byte and one 7-segment digit */
 #else
 #define PANEL_BUSY() 0
 #endif
