@@ -1,37 +1,44 @@
-/* figures.c - see figures.h.  One command per call, so a figure of any
- * length streams through the planner's short queue as a host would send it. */
+/* figures.c - see figures.h.  One move per call, so a figure of any length
+ * streams through the planner's short queue as a host would send it. */
 #include "figures.h"
 #include "planner.h"
 
 #ifdef PANEL
 
-FIGURE_ROM uint8_t *XDATA fig_next;
+XDATA uint8_t fig_next;
+typedef char fc_down_is_bit_3[FC_DOWN == 1 << 3 ? 1 : -1];
 
-void figure_start(uint8_t fig)
+void figure_move(uint8_t code)
 {
-    fig_next = &fig_stream[fig_first[fig]];
+    IDATA uint8_t *p = (IDATA uint8_t *)&plan_arg[PLAN_FEED];
+    if (code & (FC_UP | FC_DOWN)) planner_pen((uint8_t)(code >> 3) & 1);   /* FC_DOWN is bit 3 */
+    do {
+        *p++ = 0;                   /* the default feed ($2), and stop at the end */
+    } while (p != (IDATA uint8_t *)&plan_arg[PLAN_EXIT + 1]);
+    if (code & FC_ARC) planner_arc(code & 1); else planner_line();
 }
 
 void figure_poll(void)
 {
-    uint8_t code, n;
     IDATA uint16_t *arg = plan_arg;
-    if (!fig_next || !QUEUE_FREE()) return;
-    code = *fig_next++;
-    if (code >= FC_PEN_UP) {
-        planner_pen((uint8_t)(code - FC_PEN_UP));
-        return;
-    }
-    if (code == FC_END) {
-        fig_next = 0;
-        return;
-    }
-    for (n = (code == FC_LINE) ? 2 : 4; n; n--) {
-        *arg++ = (uint16_t)((int16_t)(int8_t)*fig_next++ << FIG_GRID_SHIFT);
-    }
-    plan_arg[PLAN_FEED] = 0;        /* the default feed, $2 */
-    plan_arg[PLAN_EXIT] = 0;
-    if (code == FC_LINE) planner_line(); else planner_arc(code == FC_CW);
+    uint8_t i, code, n, zero;
+    if (queue_used() > QUEUE_SIZE - FIG_QUEUE || !(i = fig_next)) return;
+    code = fig_stream[i];
+    zero = code;
+    n = (uint8_t)((code & FC_ARC) + 2);     /* FC_ARC is 2: 4 numbers, else 2 */
+    do {
+        *arg = 0;
+        if (!(zero & FC_ZERO)) {
+            i++;
+            *arg = (uint16_t)((int16_t)(int8_t)fig_stream[i] << FIG_GRID_SHIFT);
+        }
+        arg++;
+        zero >>= 1;
+    } while (--n);
+    i++;
+    if (code & FC_END) i = 0;
+    fig_next = i;
+    figure_move(code);
 }
 
 #endif

@@ -17,9 +17,11 @@
 
 #define DEBOUNCE   10           /* ms a key must read the same */
 #define JOG_STEPS  800          /* one jog press: 10 mm at 80 steps/mm */
-/* Jog feeds, steps/s, chosen by the faster and slower keys. */
-static const ROM uint16_t jog_feeds[] = {250, 500, 1000, 2000, 4000, 8000};
-#define JOG_FEEDS (sizeof jog_feeds / sizeof jog_feeds[0])
+/* The jog feed in units of JOG_UNIT steps/s, 1..JOG_MAX (250..8000 steps/s):
+ * the faster and slower keys double and halve it. */
+#define JOG_UNIT   250
+#define JOG_MAX    32
+#define JOG_FEED() ((uint8_t)jog * (uint8_t)JOG_UNIT)   /* mul ab: 8 x 8 bits */
 #define NOT_TYPING 3            /* entry_field when no number is being typed */
 
 /* What each key does (seed 000, figure 3.2): a jog in the MV_* directions
@@ -37,28 +39,72 @@ static const ROM uint8_t key_action[16] = {
     A_FASTER,             A_JOG | MV_YP, A_NONE,                 A_FIGURE | FIG_CAR,
     A_SLOWER,             A_JOG | MV_YN, A_NONE,                 A_FIGURE | FIG_CAR_REV,
 };
-static const ROM char *const ROM prompts[] = {
-    "Diamond", "Star", "Cone", "Car", "Car reversed",          /* FIG_* */
-    "Centre X?", "Centre Y?", "Radius?",                       /* PROMPT_ENTRY + entry_field */
-    "Ready", "Jog", "Circle", "Out of range",
-};
-#define PROMPT_ENTRY  FIGURES
-#define PROMPT_READY  (FIGURES + 3)
-#define PROMPT_JOG    (FIGURES + 4)
-#define PROMPT_CIRCLE (FIGURES + 5)
-#define PROMPT_RANGE  (FIGURES + 6)
+/* The prompts, one string after another; panel_prompt is the offset of
+ * its own.  SDCC would store a string again for each sizeof of it, so the
+ * offsets are written out, and the host build checks them. */
+#define T_DIAMOND  "Diamond"
+#define T_STAR     "Star"
+#define T_CONE     "Cone"
+#define T_CAR      "Car"
+#define T_CAR_REV  "Car reversed"
+#define T_CENTRE_X "Centre X?"
+#define T_CENTRE_Y "Centre Y?"
+#define T_RADIUS   "Radius?"
+#define T_READY    "Ready"
+#define T_JOG      "Jog"
+#define T_CIRCLE   "Circle"
+#define T_RANGE    "Out of range"
+static const ROM char prompts[] =
+    T_DIAMOND "\0" T_STAR "\0" T_CONE "\0" T_CAR "\0" T_CAR_REV "\0"
+    T_CENTRE_X "\0" T_CENTRE_Y "\0" T_RADIUS "\0"
+    T_READY "\0" T_JOG "\0" T_CIRCLE "\0" T_RANGE;
+#define P_DIAMOND  0
+#define P_STAR     8
+#define P_CONE     13
+#define P_CAR      18
+#define P_CAR_REV  22
+#define P_CENTRE_X 35
+#define P_CENTRE_Y 45
+#define P_RADIUS   55
+#define P_READY    63
+#define P_JOG      69
+#define P_CIRCLE   73
+#define P_RANGE    80
+#define P_FIELD    10       /* the three numbers' prompts: P_CENTRE_X + entry_field * P_FIELD */
+#ifndef __SDCC
+#define PROMPT_AFTER(p, t, q) typedef char prompt_##q##_offset[(p) + sizeof t == (q) ? 1 : -1]
+PROMPT_AFTER(P_DIAMOND, T_DIAMOND, P_STAR);
+PROMPT_AFTER(P_STAR, T_STAR, P_CONE);
+PROMPT_AFTER(P_CONE, T_CONE, P_CAR);
+PROMPT_AFTER(P_CAR, T_CAR, P_CAR_REV);
+PROMPT_AFTER(P_CAR_REV, T_CAR_REV, P_CENTRE_X);
+PROMPT_AFTER(P_CENTRE_X, T_CENTRE_X, P_CENTRE_Y);
+PROMPT_AFTER(P_CENTRE_Y, T_CENTRE_Y, P_RADIUS);
+PROMPT_AFTER(P_RADIUS, T_RADIUS, P_READY);
+PROMPT_AFTER(P_READY, T_READY, P_JOG);
+PROMPT_AFTER(P_JOG, T_JOG, P_CIRCLE);
+PROMPT_AFTER(P_CIRCLE, T_CIRCLE, P_RANGE);
+typedef char prompts_of_the_fields_are_evenly_spaced[
+    P_CENTRE_Y - P_CENTRE_X == P_FIELD && P_RADIUS - P_CENTRE_Y == P_FIELD ? 1 : -1];
+#endif
+static const ROM uint8_t figure_prompt[FIGURES] = {P_DIAMOND, P_STAR, P_CONE, P_CAR, P_CAR_REV};  /* FIG_* */
 
-XDATA uint8_t panel_digits[4];
+XDATA uint8_t panel_segments[4];
 FAST uint8_t panel_prompt;
 volatile FLAG rt_star;
 static FLAG panel_moving;               /* a key started motion: "Ready" once it ends */
 
 static FAST uint8_t entry_field;        /* the circle's centre X, centre Y, radius: 0..2 */
 static FAST uint8_t key_last, key_count;
-static FAST uint8_t jog;                /* index of the jog feed */
+static FAST uint8_t jog;                /* the jog feed / JOG_UNIT */
 static FAST uint16_t entry;             /* the number typed */
 static XDATA uint8_t entry_n;           /* digits typed */
 static XDATA uint16_t circle[2];        /* the centre typed */
+
+/* Segments a..g on bits 0..6 (dp on bit 7), lit when 1. */
+static const ROM uint8_t seg_font[10] = {
+    0x3F, 0x06, 0x5B, 0x4F, 0x66, 0x6D, 0x7D, 0x07, 0x7F, 0x6F,
+};
 
 /* The right four digits of the 7-segment display show v (0..9999). */
 static void show_number(uint16_t v)
@@ -71,23 +117,16 @@ static void show_number(uint16_t v)
             v -= tens[k];
             d++;
         }
-        panel_digits[k] = d;
+        panel_segments[k] = seg_font[d];
     }
 }
 
 static void to_menu(void)
 {
     entry_field = NOT_TYPING;
-    panel_prompt = PROMPT_READY;
+    panel_prompt = P_READY;
     panel_moving = 0;
-    show_number(jog_feeds[jog]);
-}
-
-void panel_init(void)
-{
-    key_last = K_NONE;
-    jog = 3;                      /* 2000 steps/s */
-    to_menu();
+    show_number(JOG_FEED());
 }
 
 void panel_stop(void)
@@ -96,102 +135,136 @@ void panel_stop(void)
     to_menu();
 }
 
+/* External RAM is not cleared at power-up: what needs a start value gets it. */
+void panel_init(void)
+{
+    key_last = K_NONE;
+    jog = 2000 / JOG_UNIT;
+    DISPLAY_INIT();
+    panel_stop();
+}
+
 static uint8_t motion_idle(void)
 {
-    return !st_running && !queue_used() && !FIGURE_PLAYING() && !alarm_code;
+    if (st_running || queue_used() || FIGURE_PLAYING() || alarm_code) return 0;
+    return 1;
 }
 
-/* plan_arg[k] = target - the pen's coordinate k: 0 if that is no coordinate. */
+/* plan_arg[k] = target - the pen's coordinate k: 0 if that is beyond a
+ * move's reach.  16-bit arithmetic on the position's halves: the
+ * difference fits a move when the high half plus the borrow is its sign. */
 static uint8_t to_target(uint8_t k, uint16_t target)
 {
-    int32_t d = (int32_t)target - pos_copy[k];
-    plan_arg[k] = (uint16_t)d;
-    return (int16_t)(d >> 16) == ((int16_t)d >> 15);
+    uint16_t lo = (uint16_t)pos_copy[k];
+    uint16_t hi = (uint16_t)((uint32_t)pos_copy[k] >> 16);
+    uint16_t d = target - lo;
+    plan_arg[k] = d;
+    if (target < lo) hi++;
+    return hi == (d >> 15);
 }
 
-/* The motion a key starts while the machine stands still. */
-static void key_motion(uint8_t a)
+/* The circle of the typed centre and radius (steps from the origin): the
+ * pen up to its rightmost point, one full counter-clockwise arc. */
+static void circle_start(void)
 {
-    if (a & A_JOG) {
-        plan_arg[0] = plan_arg[1] = 0;
-        if (a & MV_XP) plan_arg[0] = JOG_STEPS;
-        if (a & MV_XN) plan_arg[0] = -JOG_STEPS;
-        if (a & MV_YP) plan_arg[1] = JOG_STEPS;
-        if (a & MV_YN) plan_arg[1] = -JOG_STEPS;
-        plan_arg[PLAN_FEED] = jog_feeds[jog];
-        plan_arg[PLAN_EXIT] = 0;
-        planner_line();
-        a = PROMPT_JOG;
-    } else if (a & A_FIGURE) {
-        a &= 0x0F;
-        figure_start(a);
-    } else {
-        /* The circle of the typed centre and radius (steps from the
-         * origin): the pen up to its rightmost point, one full
-         * counter-clockwise arc. */
-        stepper_snapshot();
-        if (!entry || !to_target(0, circle[0] + entry) || !to_target(1, circle[1])) {
-            panel_prompt = PROMPT_RANGE;
-            return;
-        }
-        planner_pen(0);
-        plan_arg[PLAN_FEED] = 0;
-        plan_arg[PLAN_EXIT] = 0;
-        planner_line();
-        planner_pen(1);
-        plan_arg[0] = 0;
-        plan_arg[1] = 0;
-        plan_arg[2] = 0 - entry;
-        plan_arg[3] = 0;
-        planner_arc(0);
-        planner_pen(0);
-        a = PROMPT_CIRCLE;
+    IDATA uint16_t *p;
+    stepper_snapshot();
+    if (!entry || !to_target(0, circle[0] + entry) || !to_target(1, circle[1])) {
+        panel_prompt = P_RANGE;
+        return;
     }
-    panel_prompt = a;
+    figure_move(FC_LINE | FC_UP);
+    p = plan_arg;
+    do {
+        *p++ = 0;
+    } while (p != &plan_arg[4]);
+    plan_arg[2] = 0 - entry;
+    figure_move(FC_CCW | FC_DOWN);
+    planner_pen(0);
+    panel_prompt = P_CIRCLE;
     panel_moving = 1;
+}
+
+/* The next number of the circle, from 0000. */
+static void new_number(void)
+{
+    entry = 0;
+    entry_n = 0;
+    show_number(0);
+    panel_prompt = (uint8_t)(P_CENTRE_X + (uint8_t)(entry_field * (uint8_t)P_FIELD));
+}
+
+/* A key while a number is typed: a digit shifts in, any other key (or a
+ * fifth digit) takes the number. */
+static void key_typed(uint8_t k)
+{
+    /* column * 4 + row: bits 2..5 of the key code written twice, 0xrc */
+    k = (uint8_t)((uint8_t)(k * (uint8_t)0x11) >> 2) & 0x0F;
+    if (k <= 9 && entry_n < 4) {
+        /* entry * 10 + the digit, by two 8 x 8 bit products (mul ab) */
+        entry = (uint16_t)((uint8_t)entry * (uint8_t)10)
+                + ((uint16_t)(uint8_t)((uint8_t)(entry >> 8) * (uint8_t)10) << 8) + k;
+        entry_n++;
+        show_number(entry);
+        return;
+    }
+    if (!(entry_field & 2)) circle[entry_field] = entry;   /* the centre: fields 0, 1 */
+    if (++entry_field == NOT_TYPING) {
+        to_menu();
+        circle_start();
+        return;
+    }
+    new_number();
 }
 
 static void key_pressed(uint8_t k)
 {
-    uint8_t a = key_action[k];
-    uint8_t d = (uint8_t)(((k & 3) << 2) | (k >> 2));
+    IDATA uint16_t *p;
+    uint8_t a;
     if (entry_field != NOT_TYPING) {
-        if (d <= 9 && entry_n < 4) {
-            entry = (entry << 3) + (entry << 1) + d;
-            entry_n++;
-            show_number(entry);
-            return;
-        }
-        if (entry_field < 2) circle[entry_field] = entry;
-        if (++entry_field == NOT_TYPING) {
-            to_menu();
-            key_motion(A_CIRCLE);
-            return;
-        }
-    } else if (a == A_RESET) {
+        key_typed(k);
+        return;
+    }
+    a = key_action[k];
+    if (a == A_RESET) {
         if (motion_idle()) {              /* standing still: clear the coordinates */
             stepper_zero();
         }
         RT_STOP(rt_reset);                /* moving: stop at once, as Ctrl-X does */
         return;
-    } else {
-        if (!motion_idle()) return;
-        if (a & (A_JOG | A_FIGURE)) {
-            key_motion(a);
-            return;
-        }
-        if (a == A_FASTER && jog < JOG_FEEDS - 1) jog++;
-        if (a == A_SLOWER && jog) jog--;
-        if (a != A_CIRCLE) {
-            to_menu();
-            return;
-        }
-        entry_field = 0;
     }
-    entry = 0;                            /* the next number, from 0000 */
-    entry_n = 0;
-    show_number(0);
-    panel_prompt = PROMPT_ENTRY + entry_field;
+    if (!motion_idle()) return;
+    if (a & A_JOG) {
+        p = plan_arg;                     /* X, then Y: MV_XP, MV_XN, then MV_YP, MV_YN */
+        do {
+            *p = 0;
+            if (a & MV_XP) *p = JOG_STEPS;
+            if (a & MV_XN) *p = (uint16_t)-JOG_STEPS;
+            p++;
+            a >>= 2;
+        } while (p != &plan_arg[2]);
+        plan_arg[PLAN_FEED] = JOG_FEED();
+        plan_arg[PLAN_EXIT] = 0;
+        planner_line();
+        panel_prompt = P_JOG;
+        panel_moving = 1;
+        return;
+    }
+    if (a & A_FIGURE) {
+        a &= 0x0F;
+        panel_prompt = figure_prompt[a];
+        panel_moving = 1;
+        FIGURE_START(a);
+        return;
+    }
+    if (a == A_FASTER && jog < JOG_MAX) jog <<= 1;
+    if (a == A_SLOWER && jog > 1) jog >>= 1;
+    if (a != A_CIRCLE) {
+        to_menu();
+        return;
+    }
+    entry_field = 0;
+    new_number();
 }
 
 void panel_tick(void)
@@ -199,8 +272,8 @@ void panel_tick(void)
     uint8_t k = HAL_KEY_SCAN();
     if (k != key_last) {
         key_last = k;
-        key_count = 0;
-    } else if (key_count < DEBOUNCE && ++key_count == DEBOUNCE && k != K_NONE) {
+        key_count = DEBOUNCE;             /* counts down the readings left */
+    } else if (key_count && !--key_count && k < KEYS) {
         key_pressed(k);
     }
     if (HAL_ESTOP_ACTIVE() && alarm_code != ALARM_ESTOP && !rt_estop) {
@@ -221,7 +294,8 @@ void panel_tick(void)
 
 const ROM char *panel_text(void)
 {
-    return alarm_code ? alarm_text() : prompts[panel_prompt];
+    if (alarm_code) return alarm_text();
+    return &prompts[panel_prompt];
 }
 
 #endif

@@ -27,11 +27,11 @@
 #define K_SLOWER  12
 #define K_YN      13
 #define K_CAR_REV 15
+#define KEYS      16    /* HAL_KEY_SCAN: no key (or several) is K_NONE or another code above */
 #define K_NONE    0xFF
 
-#define DIGIT_BLANK 10
-extern XDATA uint8_t panel_digits[4];       /* the 7-segment display's right four digits */
-extern FAST uint8_t panel_prompt;           /* what the LCD's second line says (panel_text) */
+extern XDATA uint8_t panel_segments[4];     /* the 7-segment display's right four digits, lit segments */
+extern FAST uint8_t panel_prompt;           /* the LCD's second line: its offset in the prompts (panel_text) */
 const ROM char *panel_text(void);           /* that line: the prompt, or the alarm */
 
 void panel_init(void);
@@ -40,7 +40,9 @@ void panel_stop(void);      /* after a reset or an alarm: back to the menu */
 #define PANEL_BUSY() FIGURE_PLAYING()
 #include "figures.h"
 
-void display_tick(void);    /* display.c: one LCD byte and one 7-segment digit */
+extern XDATA uint8_t lcd_t;     /* display.c: ticks since power-up, then since the last refresh */
+#define DISPLAY_INIT() (lcd_t = 0)      /* the LCD's start-up sequence from the next tick */
+void display_tick(void);        /* one LCD byte and one 7-segment digit */
 #else
 #define PANEL_BUSY() 0
 #endif

@@ -35,21 +35,22 @@ static FLAG arc_cw;             /* arc: clockwise */
 /* arc_r = the square root of arc_t, rounded down (arc_t < 2^31). */
 static void arc_sqrt(void)
 {
-    uint16_t root = 0, bit = 0x8000;
+    uint16_t bit = 0x8000;
+    arc_r = 0;
     do {
-        root |= bit;
-        if ((uint32_t)root * root > arc_t) {
-            root ^= bit;
+        arc_r |= bit;
+        if ((uint32_t)arc_r * arc_r > arc_t) {
+            arc_r ^= bit;
         }
         bit >>= 1;
     } while (bit);
-    arc_r = root;
 }
 
 uint8_t queue_used(void)
 {
-    uint8_t tail = q_tail;          /* read once: the step interrupt moves it */
-    return (uint8_t)(q_head >= tail ? q_head - tail : q_head + QUEUE_SLOTS - tail);
+    uint8_t n = (uint8_t)(q_head - q_tail);    /* q_tail read once: the step interrupt moves it */
+    if (n >= QUEUE_SLOTS) n += QUEUE_SLOTS;     /* wrapped below 0 */
+    return n;
 }
 
 void planner_flush(void)
@@ -62,8 +63,9 @@ static uint8_t commit(void)
 {
     XDATA uint8_t *dst;
     IDATA uint8_t *src;
-    uint8_t n;
-    if (QUEUE_NEXT(q_head) == q_tail) {
+    uint8_t n, next = (uint8_t)(q_head + 1);
+    if (next == QUEUE_SLOTS) next = 0;      /* QUEUE_NEXT, in 8 bits */
+    if (next == q_tail) {
         return E_QUEUEFULL;
     }
     plan.seq = plan_seq;
@@ -73,19 +75,26 @@ static uint8_t commit(void)
     do {
         *dst++ = *src++;
     } while (--n);
-    q_head = QUEUE_NEXT(q_head);
+    q_head = next;
     return E_OK;
 }
 
-/* The highest ramp level whose rate does not exceed `rate`.  Also leaves in
+/* The highest ramp level whose rate does not exceed *rate.  Also leaves in
  * plan.exit_brake the hold steps (times the multiplier) of the levels up to
  * it: the braking distance to that level. */
-static uint8_t level_for_rate(uint16_t rate)
+static uint8_t level_for_rate(IDATA uint16_t *ratep)
 {
+    uint16_t rate = *ratep;
     RAMP_ROM uint8_t *holds = &ramp_hold[RAMP_ROW(SETTING(SET_SHAPE))];
     uint8_t k = 0;
     uint16_t sum = (uint16_t)((uint8_t)holds[0] * (uint8_t)SETTING(SET_ACCEL));
-    while (k < RAMP_LEVELS - 1 &&
+    /* rate is at most the top level's (plan_motion): with the trapezoid
+     * alone, the rate a level above the top (computed, not tabled) ends the
+     * loop there */
+    while (
+#if RAMP_SHAPES > 1
+           k < RAMP_LEVELS - 1 &&
+#endif
            RAMP_RATE(SETTING(SET_SHAPE), k + 1) <= rate) {
         k++;
         sum += (uint16_t)((uint8_t)holds[k] * (uint8_t)SETTING(SET_ACCEL));
@@ -94,28 +103,55 @@ static uint8_t level_for_rate(uint16_t rate)
     return k;
 }
 
+/* plan.cruise_period: the step period at feed f, CYCLES_PER_S / f rounded,
+ * for f in FEED_MIN..32767.  A long division by shift and subtract, the
+ * quotient shifting in where the dividend shifts out: it needs no library
+ * division, and with CYCLES_PER_S < FEED_MIN * 2^16 the quotient fits 16
+ * bits. */
+#if CYCLES_PER_S >= FEED_MIN * 65536UL || RAMP_R0 + (RAMP_LEVELS - 1) * RAMP_DR > 32767
+#error plan_period: the quotient or the feed outgrows 16 bits
+#endif
+static void plan_period(uint16_t f)
+{
+    uint16_t hi = (uint16_t)(CYCLES_PER_S >> 16);
+    uint16_t lo = (uint16_t)CYCLES_PER_S + (f >> 1);
+    uint8_t i = 16;
+    do {
+        hi <<= 1;
+        if (lo & 0x8000) hi++;
+        lo <<= 1;
+        if (hi >= f) {
+            hi -= f;
+            lo++;
+        }
+    } while (--i);
+    plan.cruise_period = HAL_PERIOD(lo);
+}
+
 /* Ramp fields shared by lines and arcs, then into the queue. */
 static uint8_t plan_motion(void)
 {
-    uint16_t top = RAMP_TOP(SETTING(SET_SHAPE));
-    if (plan_arg[PLAN_FEED] == 0) plan_arg[PLAN_FEED] = SETTING(SET_FEED);
-    if (plan_arg[PLAN_FEED] < FEED_MIN) plan_arg[PLAN_FEED] = FEED_MIN;
-    if (plan_arg[PLAN_FEED] > top) plan_arg[PLAN_FEED] = top;
-    if (plan_arg[PLAN_EXIT] > plan_arg[PLAN_FEED]) plan_arg[PLAN_EXIT] = plan_arg[PLAN_FEED];
-    plan.cruise_period = HAL_PERIOD((CYCLES_PER_S + plan_arg[PLAN_FEED] / 2) / plan_arg[PLAN_FEED]);  /* rounded */
-    plan.cruise = level_for_rate(plan_arg[PLAN_FEED]);
-    plan.exit = level_for_rate(plan_arg[PLAN_EXIT]);
+    uint16_t f = plan_arg[PLAN_FEED], top = RAMP_TOP(SETTING(SET_SHAPE));
+    if (f == 0) f = SETTING(SET_FEED);
+    if (f < FEED_MIN) f = FEED_MIN;
+    if (f > top) f = top;
+    plan_arg[PLAN_FEED] = f;
+    if (plan_arg[PLAN_EXIT] > f) plan_arg[PLAN_EXIT] = f;
+    plan_period(f);
+    plan.cruise = level_for_rate(&plan_arg[PLAN_FEED]);
+    plan.exit = level_for_rate(&plan_arg[PLAN_EXIT]);
     return commit();
 }
 
-/* |v|; sets dir_bit in plan.dirs if v is negative. */
-static int16_t magnitude(int16_t v, uint8_t dir_bit)
+/* (&plan.a)[k] = |plan_arg[k]|; sets dir_bit in plan.dirs if it is negative. */
+static void magnitude(uint8_t k, uint8_t dir_bit)
 {
+    int16_t v = (int16_t)plan_arg[k];
     if (v < 0) {
         plan.dirs |= dir_bit;
         v = -v;
     }
-    return v;
+    (&plan.a)[k] = v;
 }
 
 #ifdef INTERP_DDA
@@ -145,8 +181,8 @@ uint8_t planner_line(void)
     }
     plan.kind = SEG_LINE;
     plan.dirs = 0;
-    plan.a = magnitude((int16_t)plan_arg[0], BIT_X_DIR);
-    plan.b = magnitude((int16_t)plan_arg[1], BIT_Y_DIR);
+    magnitude(0, BIT_X_DIR);
+    magnitude(1, BIT_Y_DIR);
 #if defined(INTERP_COMPARE)
     plan.steps = plan.a > plan.b ? plan.a : plan.b;     /* the base axis steps every time */
 #elif defined(INTERP_DDA)
@@ -173,20 +209,22 @@ uint8_t planner_z(void)
     }
     plan.kind = SEG_LINE;
     plan.dirs = 0;
+    magnitude(0, BIT_Z_DIR);
+    plan.b = plan.a;
     plan.a = 0;
-    plan.b = magnitude((int16_t)plan_arg[0], BIT_Z_DIR);
     plan.c = 1;
     plan.steps = plan.b;
     return plan_motion();
 }
 #endif
 
-/* Quadrant 0..3 (I..IV) of a point relative to the centre.  A point on an
- * axis belongs to the quadrant the arc is about to sweep through, so the
- * point where an arc crosses an axis already counts as the next quadrant.
- * The centre itself has no quadrant: 4.  Indexed by the signs of x and y
- * (negative, zero, positive = 0, 1, 2) as 3 * x + y; the quadrant when
- * turning counter-clockwise in bits 0-2, clockwise in bits 4-6. */
+/* Quadrant 0..3 (I..IV) of a point (x, y) = (p[0], p[1]) relative to the
+ * centre.  A point on an axis belongs to the quadrant the arc is about to
+ * sweep through, so the point where an arc crosses an axis already counts
+ * as the next quadrant.  The centre itself has no quadrant: 4.  Indexed by
+ * the signs of x and y (negative, zero, positive = 0, 1, 2) as 3 * x + y;
+ * the quadrant when turning counter-clockwise in bits 0-2, clockwise in
+ * bits 4-6. */
 #define QUADRANT(ccw, cw) ((ccw) | ((cw) << 4))
 static RAMP_ROM uint8_t quadrants[9] = {
     QUADRANT(2, 2), QUADRANT(2, 1), QUADRANT(1, 1),     /* x < 0 */
@@ -194,12 +232,26 @@ static RAMP_ROM uint8_t quadrants[9] = {
     QUADRANT(3, 3), QUADRANT(0, 3), QUADRANT(0, 0),     /* x > 0 */
 };
 
-static uint8_t arc_quadrant(int16_t x, int16_t y)
+static uint8_t arc_quadrant(IDATA int16_t *p)
 {
-    uint8_t k = (x < 0) ? 0 : (x == 0) ? 3 : 6;
-    k += (y < 0) ? 0 : (y == 0) ? 1 : 2;
+    uint8_t k = 0, n = 2;
+    do {
+        k *= 3;
+        if (*p >= 0) {
+            k++;
+            if (*p) k++;
+        }
+        p++;
+    } while (--n);
     k = quadrants[k];
-    return arc_cw ? (uint8_t)(k >> 4) : (uint8_t)(k & 0x0F);
+    if (arc_cw) k >>= 4;
+    return (uint8_t)(k & 0x0F);
+}
+
+/* arc_t = 0: the call takes 3 bytes of code, the assignment 9 */
+static void clear_t(void)
+{
+    arc_t = 0;
 }
 
 /* arc_t += a * b */
@@ -210,67 +262,84 @@ static void add_product(int16_t a, int16_t b)
 
 #ifndef INTERP_COMPARE
 /* Adds to arc_t the steps of the staircase between point p (p[0], p[1])
- * and the point at radius arc_r on half-axis k (+X, +Y, -X, -Y = 0..3; 4:
- * the centre) bounding the point's quadrant: the staircase moves
- * monotonically, and the point lies on the axis's side of the centre. */
+ * and the point at radius arc_r on half-axis k + arc_cw (+X, +Y, -X, -Y =
+ * 0..3 modulo 4: only whether it is an X or a Y axis counts) bounding the
+ * point's quadrant: the staircase moves monotonically, and the point lies
+ * on the axis's side of the centre.  Coordinates and radius are at most
+ * 32767. */
 static void add_axis_steps(uint8_t k, IDATA int16_t *p)
 {
-    uint16_t v;
-    uint8_t i;
-    for (i = 0; i < 2; i++) {          /* x, then y */
-        v = (uint16_t)(p[i] < 0 ? -p[i] : p[i]);
-        if (k < 4 && (k & 1) == i) {    /* the coordinate along the axis */
-            v = v > arc_r ? v - arc_r : arc_r - v;
+    int16_t v;
+    uint8_t n = 2;
+    k = (uint8_t)(k + arc_cw) & 1;      /* counts down to the coordinate along the axis */
+    do {
+        v = *p++;
+        if (v < 0) v = -v;
+        if (k-- == 0) {
+            v -= arc_r;
+            if (v < 0) v = -v;
         }
-        arc_t += v;
-    }
+        arc_t += (uint16_t)v;
+    } while (--n);
 }
 #endif
 
 /* arc_t += p[0]^2 + p[1]^2 */
 static void add_squares(IDATA int16_t *p)
 {
-    add_product(p[0], p[0]);
-    add_product(p[1], p[1]);
+    IDATA int16_t *end = p + 2;
+    do {
+        add_product(*p, *p);
+    } while (++p != end);
 }
 
 /* Start and end relative to the centre: (-i, -j) and (dx - i, dy - j);
  * E_RANGE if the end is outside -32767..32767. */
 static uint8_t arc_points(void)
 {
-    int32_t t;
-    uint8_t k;
-    for (k = 0; k < 2; k++) {
-        t = (int32_t)(int16_t)plan_arg[k] - (int16_t)plan_arg[k + 2];
-        if (t > 32767 || t < -32767) {
+    IDATA uint16_t *arg = plan_arg;     /* dx, then dy; i, j two further */
+    IDATA int16_t *pt = &plan.a;        /* start x, then y; the end two further */
+    uint16_t i, e;
+    uint8_t dh;
+    do {
+        i = arg[2];
+        e = arg[0] - i;
+        dh = (uint8_t)(arg[0] >> 8);
+        /* out of range: d - i overflowed 16 bits (the operands' signs
+         * differ, and the result's differs from d's), or is -32768 */
+        if (((uint8_t)(dh ^ (uint8_t)(i >> 8)) & (uint8_t)(dh ^ (uint8_t)(e >> 8)) & 0x80) || e == 0x8000) {
             return E_RANGE;
         }
-        (&plan.c)[k] = (int16_t)t;
-        (&plan.a)[k] = -(int16_t)plan_arg[k + 2];
-    }
+        pt[2] = (int16_t)e;
+        pt[0] = (int16_t)(0 - i);
+        arg++;
+    } while (++pt != &plan.c);
     return E_OK;
 }
 
 /* Start and end in one quadrant, the final one: the moves towards the end
  * (into plan.dirs, see segment.h) and the exact step count (into arc_t).
- * Same quadrant: the differences do not overflow. */
+ * Same quadrant: each difference is at most 32767, their sum fits 16 bits. */
 static void arc_final_quadrant(void)
 {
     IDATA int16_t *p = &plan.a;         /* start x, y, end x, y */
-    uint8_t i, move = MV_XP;
+    uint8_t move = MV_XP, dirs = 0;
     int16_t e;
-    plan.dirs = 0;
-    arc_t = 0;
-    for (i = 0; i < 2; i++, move = MV_YP) {
-        e = p[i + 2] - p[i];
+    uint16_t sum = 0;
+    do {
+        e = p[2] - p[0];
+        p++;
         if (e < 0) {
-            plan.dirs |= move << 1;         /* MV_XN, MV_YN */
+            dirs |= move << 1;          /* MV_XN, MV_YN */
             e = -e;
         } else if (e) {
-            plan.dirs |= move;
+            dirs |= move;
         }
-        arc_t += (uint16_t)e;
-    }
+        sum += (uint16_t)e;
+        move <<= 2;                     /* MV_YP */
+    } while (move != MV_YP << 2);
+    plan.dirs = dirs;
+    arc_t = sum;
 }
 
 #ifdef INTERP_COMPARE
@@ -299,51 +368,69 @@ static uint16_t arc_potential(uint8_t k, IDATA int16_t *pt)
 }
 #endif
 
+#if (SEG_ARC_CCW ^ 1) != SEG_ARC_CW
+#error planner_arc: the kind is SEG_ARC_CCW ^ arc_cw
+#endif
 uint8_t planner_arc(uint8_t clockwise)
 {
     uint8_t qe, cross;
+    uint16_t w;
 
     arc_cw = clockwise ? 1 : 0;
     if (arc_points()) return E_RANGE;
-    arc_t = 0;
+    clear_t();
     add_squares(&plan.a);                   /* R^2, at most 2 * 32767^2 */
     arc_sqrt();
     if (arc_r == 0) return E_ARC;           /* the centre is the start point */
-    if (arc_r > 32767) return E_RANGE;
-    arc_t = 0 - arc_t;
-    add_squares(&plan.c);                   /* minus the end's squared radius */
-    if ((int32_t)arc_t < 0) arc_t = 0 - arc_t;
-    if (arc_t > 2UL * arc_r + 1) return E_ARC;   /* end more than a step off the circle */
+    if (arc_r & 0x8000) return E_RANGE;     /* above 32767 */
+    /* The end more than a step off the circle, |E^2 - R^2| > w = 2r + 1:
+     * E^2 - R^2 + w outside 0..2w, as unsigned, above 2w. */
+    w = 2u * arc_r + 1u;
+    arc_t = w - arc_t;
+    add_squares(&plan.c);
+    if (arc_t > (uint32_t)w + w) return E_ARC;
 
-    plan.kind = clockwise ? SEG_ARC_CW : SEG_ARC_CCW;
-    plan.quadrant = arc_quadrant(plan.a, plan.b);
-    qe = arc_quadrant(plan.c, plan.d);
-    cross = (uint8_t)(arc_cw ? plan.quadrant - qe : qe - plan.quadrant) & 3;
+    plan.kind = (uint8_t)(SEG_ARC_CCW ^ arc_cw);
+    /* plan.quadrant gets its 4 if clockwise (segment.h) at once: what
+     * follows takes it modulo 4, or only its parity */
+    qe = arc_quadrant(&plan.a);
+    if (arc_cw) qe |= 4;
+    plan.quadrant = qe;
+    qe = arc_quadrant(&plan.c);
+    cross = (uint8_t)(qe - plan.quadrant);
+    if (arc_cw) cross = (uint8_t)-cross;
+    cross &= 3;
     if (cross == 0) {
         /* Same quadrant: ahead of the start, or all the way round?  The
          * cross product start x end says which side the end lies on. */
-        arc_t = 0;
+        clear_t();
         add_product(plan.a, plan.d);
         add_product(-plan.b, plan.c);
         if (arc_cw) arc_t = 0 - arc_t;
-        if ((int32_t)arc_t < 0 || (arc_t == 0 && plan.a == plan.c && plan.b == plan.d)) {
+        /* behind (arc_t < 0), or the start itself (dx = dy = 0) */
+        if (((uint8_t)(arc_t >> 24) & 0x80) || !(plan_arg[0] | plan_arg[1])) {
             cross = 4;
         }
     }
+    plan.crossings = cross;                 /* and from here on read there */
     if (cross == 0) {
         arc_final_quadrant();
     }
 #ifndef INTERP_COMPARE
     else {
         /* Quadrant q runs from half-axis q to q+1 counter-clockwise, q+1 to q
-         * clockwise; between the start's and the end's quadrants lie cross - 1
-         * whole quadrants of 2r steps each. */
-        arc_t = 0;
-        add_axis_steps((uint8_t)(plan.quadrant + !arc_cw) & 3, &plan.a);
-        add_axis_steps(qe == 4 ? (arc_cw ? 1 : 4) : (uint8_t)(qe + arc_cw) & 3, &plan.c);
-        for (qe = cross; qe > 1; qe--) {
-            arc_t += 2u * arc_r;
+         * clockwise: the start leaves its quadrant through the second (the
+         * same axis as q + 1 + arc_cw), the end enters its own through the
+         * first.  Between the start's and the end's quadrants lie cross - 1
+         * whole quadrants of 2r steps each (r at most 32767). */
+        clear_t();
+        add_axis_steps((uint8_t)(plan.quadrant + 1), &plan.a);
+        /* An end at the centre (qe = 4): |c| + |d| = 0; its steps are r
+         * clockwise (to the +Y half-axis), none counter-clockwise. */
+        if (qe != 4 || arc_cw) {
+            add_axis_steps(qe, &plan.c);
         }
+        add_product((int16_t)arc_r, (uint8_t)(plan.crossings + plan.crossings - 2));
     }
 #endif
 #if defined(INTERP_DDA)
@@ -356,7 +443,7 @@ uint8_t planner_arc(uint8_t clockwise)
      * an arc that crosses one) at least 1 / 0.764 of them (at 67 degrees),
      * within a quadrant at least 1 / 0.707 (near 45 degrees). */
     plan.dirs &= 0x0F;
-    qe = cross ? 193 : 181;
+    qe = plan.crossings ? 193 : 181;
     arc_r = (uint16_t)(((uint32_t)dda_capacity(arc_r + 1, 1) * qe) / arc_r);   /* the radius is done with */
     arc_t = (arc_t * arc_r) >> 8;
 #elif defined(INTERP_COMPARE)
@@ -368,7 +455,7 @@ uint8_t planner_arc(uint8_t clockwise)
     arc_t -= arc_potential(plan.quadrant, &plan.a);
     plan_arg[0] = 0;                        /* a half-axis point; plan_arg[0..3]: free after arc_points */
     plan_arg[1] = arc_r;
-    for (qe = cross; qe; qe--) {
+    for (qe = plan.crossings; qe; qe--) {
         arc_t += arc_potential(arc_cw, (IDATA int16_t *)plan_arg);
     }
 #endif
@@ -378,9 +465,9 @@ uint8_t planner_arc(uint8_t clockwise)
         arc_t = 1;
     }
 #endif
-    plan.steps = arc_t > 65535UL ? 65535u : (uint16_t)arc_t;
-    plan.crossings = cross;
-    if (arc_cw) plan.quadrant |= 4;
+    w = (uint16_t)arc_t;
+    if ((uint16_t)(arc_t >> 16)) w = 65535u;
+    plan.steps = w;
     return plan_motion();
 }
 
@@ -397,7 +484,8 @@ static uint8_t plan_wait(void)
 uint8_t planner_pen(uint8_t down)
 {
     plan.kind = SEG_PEN;
-    plan.dirs = down ? BIT_PEN : 0;
+    if (down) down = BIT_PEN;
+    plan.dirs = down;
     plan.steps = SETTING(SET_PEN) ? SETTING(SET_PEN) : 1;
     return plan_wait();
 }

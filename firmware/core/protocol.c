@@ -25,21 +25,13 @@ uint8_t alarm_code;
 static IDATA char line[LINE_MAX + 1];
 static FAST uint8_t line_len;
 #ifdef HOST_LINK
-static XDATA uint8_t line_s1, line_s2;  /* checksum of the bytes before '*' (see put_eol) */
-
-/* One byte into a Fletcher sum: 8-bit ones' complement additions (an
- * end-around carry), i.e. modulo 255, so that bit 7 errors cannot cancel. */
-#define FLETCHER_ADD(s1, s2, c) do {                                      \
-        uint16_t t_ = (uint16_t)(s1) + (uint8_t)(c);                      \
-        (s1) = (uint8_t)((uint8_t)t_ + (uint8_t)(t_ >> 8));               \
-        t_ = (uint16_t)(s2) + (s1);                                       \
-        (s2) = (uint8_t)((uint8_t)t_ + (uint8_t)(t_ >> 8));               \
-    } while (0)
+/* Fletcher sums 256 * s2 + s1 (put_eol): of the line's bytes before its '*',
+ * and of the reply line so far. */
+static XDATA uint16_t line_sum, tx_sum;
 static FAST uint8_t line_star;    /* index of '*' + 1, 0 if none */
 static FLAG resend_asked;         /* an rs is outstanding: drop later lines quietly */
 static FLAG machine;              /* the line being executed is in machine form */
 static IDATA uint16_t expected_seq;  /* next sequence number to execute */
-static XDATA uint8_t tx_s1, tx_s2;  /* checksum of the reply line so far */
 #endif
 static FLAG line_long;            /* the line overflowed LINE_MAX */
 
@@ -58,6 +50,21 @@ static FLAG out_lcd;              /* out() writes to the LCD (protocol_lcd) */
 static FAST uint8_t lcd_col;
 #endif
 
+#ifdef HOST_LINK
+/* One byte into a Fletcher sum: 8-bit ones' complement additions (an
+ * end-around carry), i.e. modulo 255, so that bit 7 errors cannot cancel. */
+static void fletcher(XDATA uint16_t *sum, uint8_t c)
+{
+    uint16_t t = *sum;
+    uint8_t s1 = (uint8_t)t, s2 = (uint8_t)(t >> 8);
+    s1 += c;
+    if (s1 < c) s1++;
+    s2 += s1;
+    if (s2 < s1) s2++;
+    *sum = (uint16_t)((uint16_t)s2 << 8 | s1);
+}
+#endif
+
 /* Every byte of a reply goes through here, summed for the line's checksum. */
 
 static void out(uint8_t c)
@@ -69,10 +76,10 @@ static void out(uint8_t c)
         return;
     }
 #endif
-#ifdef HOST_LINK
-    FLETCHER_ADD(tx_s1, tx_s2, c);
-#endif
     hal_putc(c);
+#ifdef HOST_LINK
+    fletcher(&tx_sum, c);
+#endif
 }
 
 static void put_str(const ROM char *s)
@@ -83,21 +90,19 @@ static void put_str(const ROM char *s)
     }
 }
 
-static void put_num(void);
+static void put_u16(uint16_t v);
 
 /* End a reply line with " *<checksum>": the Fletcher sum 256 * s2 + s1 of
- * the bytes before the '*' (FLETCHER_ADD).  Unlike an XOR it notices a
+ * the bytes before the '*' (fletcher).  Unlike an XOR it notices a
  * dropped or repeated pair of equal bytes and swapped bytes; the host trusts
  * no reply that fails it. */
 static void put_eol(void)
 {
 #ifdef HOST_LINK
     out(' ');
-    num = ((uint16_t)tx_s2 << 8) | tx_s1;
     hal_putc('*');
-    put_num();
-    tx_s1 = 0;
-    tx_s2 = 0;
+    put_u16(tx_sum);
+    tx_sum = 0;
 #endif
     hal_putc('\r');
     hal_putc('\n');
@@ -107,30 +112,27 @@ static RAMP_ROM uint32_t powers_of_ten[10] = {
     1000000000UL, 100000000UL, 10000000UL, 1000000UL, 100000UL, 10000UL, 1000UL, 100UL, 10UL, 1UL,
 };
 
-/* The decimal digit of num at powers_of_ten[k], taken off num: repeated
- * subtraction, as the 8051 has no 32-bit divide (the library's is long). */
-static uint8_t num_digit(uint8_t k)
-{
-    uint32_t p = powers_of_ten[k];
-    uint8_t d = 0;
-    while (num >= p) {
-        num -= p;
-        d++;
-    }
-    return d;
-}
-
 /* num in decimal, with a '-' if it is negative as an int32; most
- * significant digit first, so no buffer is needed. */
+ * significant digit first, so no buffer is needed.  Each digit by repeated
+ * subtraction, as the 8051 has no 32-bit divide (the library's is long). */
+static FLAG started;              /* put_num has printed a digit */
+
 static void put_num(void)
 {
-    uint8_t k, d, started = 0;
-    if ((int32_t)num < 0) {
+    uint8_t k, d;
+    uint32_t p;
+    started = 0;
+    if (num & 0x80000000UL) {           /* negative as an int32 */
         out('-');
         num = 0 - num;
     }
     for (k = 0; k < 10; k++) {
-        d = num_digit(k);
+        p = powers_of_ten[k];
+        d = 0;
+        while (num >= p) {
+            num -= p;
+            d++;
+        }
         if (d || started || k == 9) {
             out((uint8_t)('0' + d));
             started = 1;
@@ -144,6 +146,11 @@ static void put_u16(uint16_t v)
     put_num();
 }
 
+static void put_u8(uint8_t v)
+{
+    put_u16(v);
+}
+
 /* " <tag>", the start of a field */
 static void put_tag(char tag)
 {
@@ -151,31 +158,49 @@ static void put_tag(char tag)
     out((uint8_t)tag);
 }
 
-void protocol_init(void)
+/* " Q<free queue slots>" */
+static void put_free(void)
+{
+    put_tag('Q');
+    put_u8(QUEUE_FREE());
+}
+
+/* Start a new line. */
+static void line_clear(void)
 {
     line_len = 0;
 #ifdef HOST_LINK
-    line_s1 = 0;
-    line_s2 = 0;
+    line_sum = 0;
     line_star = 0;
+#endif
+    line_long = 0;
+}
+
+void protocol_init(void)
+{
+    line_clear();
+#ifdef HOST_LINK
     expected_seq = 0;
     resend_asked = 0;
 #endif
-    line_long = 0;
     alarm_code = 0;
     put_str(FW_NAME " " FW_VERSION FW_EDITION " ready");
     put_eol();
+}
+
+static void put_coordinate(IDATA int32_t *v)
+{
+    num = (uint32_t)*v;
+    put_num();
 }
 
 /* "X<x> Y<y>" of pos_copy */
 static void put_position(void)
 {
     out('X');
-    num = (uint32_t)pos_copy[0];
-    put_num();
+    put_coordinate(&pos_copy[0]);
     put_tag('Y');
-    num = (uint32_t)pos_copy[1];
-    put_num();
+    put_coordinate(&pos_copy[1]);
 }
 
 #ifdef PANEL
@@ -203,12 +228,20 @@ void protocol_lcd(const ROM char *text)
 }
 #endif
 
+/* A status report's start, one per state: put_str(states + its offset). */
+static const ROM char states[] = "<Alarm \0<Hold \0<Run \0<Idle ";
+
 static void report_status(void)
 {
+    uint8_t state;
     stepper_snapshot();
-    out('<');
-    put_str(alarm_code ? "Alarm" : HOLDING ? "Hold" : st_running ? "Run" : "Idle");
-    out(' ');
+    state = 21;
+    if (st_running) state = 15;
+#ifdef HOST_LINK
+    if (HOLDING) state = 8;
+#endif
+    if (alarm_code) state = 0;
+    put_str(states + state);
     put_position();
 #ifdef ZAXIS
     put_tag('Z');
@@ -217,8 +250,7 @@ static void report_status(void)
     HAL_CRITICAL_END();
     put_num();
 #endif
-    put_tag('Q');
-    put_u16(QUEUE_FREE());
+    put_free();
 #ifdef HOST_LINK
     put_tag('N');
     put_u16(expected_seq);
@@ -226,29 +258,38 @@ static void report_status(void)
     put_u16(st_seg.seq);
 #endif
     put_tag('P');
-    put_u16((st_port & BIT_PEN) ? 1 : 0);
+#if BIT_PEN != 0x10
+#error "the status report takes the pen from bit 4"
+#endif
+    put_u8((uint8_t)(st_port & BIT_PEN) >> 4);
 #ifdef HOST_LINK
     put_tag('U');
     put_u16(st_underruns);
 #endif
     put_tag('A');
-    put_u16(alarm_code);
+    put_u8(alarm_code);
     out('>');
     put_eol();
 }
 
+/* Each text at its offset: alarm_texts + offset. */
+static const ROM char alarm_texts[] = "reset\0alarm estop\0alarm limit";
+
 const ROM char *alarm_text(void)
 {
-    return alarm_code == ALARM_ESTOP ? "alarm estop" : "alarm limit";
+    uint8_t k = 0;
+    if (alarm_code) k = 18;
+    if (alarm_code == ALARM_ESTOP) k = 6;
+    return alarm_texts + k;
 }
 
 void protocol_alarm(uint8_t code)
 {
     HAL_TIMER_HALT();
+    alarm_code = code;
     stepper_abort();
     planner_flush();
     st_hold = 0;
-    alarm_code = code;
 #ifdef PANEL
     panel_stop();
 #endif
@@ -259,16 +300,15 @@ void protocol_alarm(uint8_t code)
 }
 
 
-static uint8_t is_separator(char c)
+/* Move the cursor past spaces, commas and tabs: how many. */
+static uint8_t skip_separators(void)
 {
-    return c == ' ' || c == ',' || c == '\t';
-}
-
-static void skip_separators(void)
-{
-    while (is_separator(*cur)) {
+    IDATA char *start = cur;
+    char c;
+    while ((c = *cur) == ' ' || c == ',' || c == '\t') {
         cur++;
     }
+    return (uint8_t)(cur - start);
 }
 
 /* Parse one decimal integer (optional sign) at the cursor: magnitude into
@@ -279,16 +319,14 @@ static uint8_t parse_num(IDATA uint16_t *mag)
     IDATA char *first;
     uint16_t acc = 0;
     uint8_t sign = 1, d;
-    if (*cur == '-') {
-        sign = 2;
-        cur++;
-    } else if (*cur == '+') {
-        cur++;
-    }
+    d = *cur;
+    if (d == '-') sign = 2;
+    if (d == '-' || d == '+') cur++;
     first = cur;
     while ((d = (uint8_t)(*cur - '0')) <= 9) {
         if (acc > 6553u) return 0;
-        acc = (uint16_t)((acc << 3) + (acc << 1)) + d;
+        acc = (uint16_t)((acc << 2) + acc);   /* acc * 10 + d, without a multiply */
+        acc = (uint16_t)(acc << 1) + d;
         if (acc < d) return 0;            /* wrapped past 65535 */
         cur++;
     }
@@ -308,7 +346,11 @@ static uint8_t parse_u16(void)
 /* Parse the arguments after the command letter, up to the end. */
 static uint8_t parse_args(void)
 {
-    uint8_t sign, bit = 1;
+    uint8_t sign;
+    IDATA uint16_t *a = arg_mag;
+    do {
+        *a++ = 0;                         /* absent: 0, a motion's feed and exit too */
+    } while (a != arg_mag + 6);
     nargs = 0;
     arg_neg = 0;
     skip_separators();
@@ -316,74 +358,25 @@ static uint8_t parse_args(void)
         if (nargs == 6 || !(sign = parse_num(&arg_mag[nargs]))) {
             return E_NUMBER;
         }
-        if (sign == 2) arg_neg |= bit;
-        bit <<= 1;
+        if (sign == 2) arg_neg |= (uint8_t)(1 << nargs);
         nargs++;
-        if (cur < end && !is_separator(*cur)) {
-            return E_NUMBER;
-        }
-        skip_separators();
-    }
-    return E_OK;
-}
-
-/* Why a motion command cannot be queued now, or E_OK. */
-static uint8_t refused(void)
-{
-    if (alarm_code) return E_ALARM;
-#ifdef PANEL
-    if (PANEL_BUSY()) return E_BUSY;      /* the panel is drawing a figure */
-#endif
-    return E_OK;
-}
-
-/* L dx dy [feed [exit]], C/A dx dy i j [feed [exit]]: check the numbers and
- * hand them to the planner, feed and exit at PLAN_FEED and PLAN_EXIT. */
-static uint8_t cmd_motion(char cmd)
-{
-    static IDATA uint8_t coords;
-    uint8_t k, bit = 1;
-#ifdef ZAXIS
-    coords = (cmd == 'L') ? 2 : (cmd == 'Z') ? 1 : 4;
-#else
-    coords = (cmd == 'L') ? 2 : 4;
-#endif
-    if (nargs < coords || nargs > (uint8_t)(coords + 2)) return E_ARGS;
-    for (k = 0; k < nargs; k++, bit <<= 1) {
-        if (k < coords) {
-            if (arg_mag[k] > 32767u) return E_RANGE;  /* coordinates: -32767..32767 */
-            if (arg_neg & bit) arg_mag[k] = 0 - arg_mag[k];
-        } else if (arg_neg & bit) {
-            return E_RANGE;                           /* feed and exit are not negative */
+        if (!skip_separators() && cur < end) {
+            return E_NUMBER;              /* a number runs on into something else */
         }
     }
-    while (nargs < (uint8_t)(coords + 2)) {
-        arg_mag[nargs++] = 0;                         /* feed, exit default to 0 */
-    }
-    if (refused()) return refused();
-    if (cmd == 'L') {
-        arg_mag[PLAN_FEED] = arg_mag[2];
-        arg_mag[PLAN_EXIT] = arg_mag[3];
-        return planner_line();
-    }
-#ifdef ZAXIS
-    if (cmd == 'Z') {
-        arg_mag[PLAN_FEED] = arg_mag[1];
-        arg_mag[PLAN_EXIT] = arg_mag[2];
-        return planner_z();
-    }
-#endif
-    return planner_arc(cmd == 'C');
+    return E_OK;
 }
 
 #if defined(HOST_LINK) && !defined(PANEL)    /* the panel image's settings are fixed */
 /* $0 acceleration divisor, $1 ramp shape, $2 default feed, $3 pen delay. */
-static RAMP_ROM uint16_t setting_min[SETTINGS] = {1, 0, 15, 1};
-static RAMP_ROM uint16_t setting_max[SETTINGS] = {50, RAMP_SHAPES - 1, 65535u, 5000};
+static RAMP_ROM uint16_t setting_range[SETTINGS][2] = {   /* least, greatest */
+    {1, 50}, {0, RAMP_SHAPES - 1}, {15, 65535u}, {1, 5000},
+};
 
 static uint8_t cmd_setting(void)
 {
-    static IDATA uint8_t key;
+    const RAMP_ROM uint16_t *range;
+    uint8_t key;
     if (cur >= end) {
         for (key = 0; key < SETTINGS; key++) {
             out('$');
@@ -402,22 +395,48 @@ static uint8_t cmd_setting(void)
         put_eol();
         return E_OK;
     }
-    if (!parse_u16() || *cur != '=') return E_NUMBER;
-    key = arg_mag[0] < SETTINGS ? (uint8_t)arg_mag[0] : SETTINGS;
+    if (!parse_u16() || *cur != '=') return E_NUMBER;   /* $<key>=<value> */
     cur++;
-    if (!parse_u16() || cur != end) return E_NUMBER;
-    if (key >= SETTINGS || arg_mag[0] < setting_min[key] || arg_mag[0] > setting_max[key]) return E_RANGE;
+    if (parse_num(&arg_mag[1]) != 1 || cur != end) return E_NUMBER;
+    if (arg_mag[0] >= SETTINGS) return E_RANGE;
+    key = (uint8_t)arg_mag[0];
+    range = setting_range[key];
+    if (arg_mag[1] < range[0] || arg_mag[1] > range[1]) return E_RANGE;
     if (st_running || queue_used()) return E_BUSY;
-    setting[key] = arg_mag[0];
+    setting[key] = arg_mag[1];
     return E_OK;
 }
 #endif
 
+/* The commands' letters, and for each the fewest arguments, with MOTION
+ * for a motion command: its coordinates (-32767..32767; the other arguments
+ * are not negative) are those arguments, then up to two more, feed and exit. */
+#define MOTION 0x80
+#ifdef ZAXIS
+#define Z_COMMAND "Z"
+#define Z_ARGS MOTION | 1,
+#else
+#define Z_COMMAND
+#define Z_ARGS
+#endif
+#ifdef HOST_LINK
+#define D_COMMAND "D"
+#define D_ARGS 1,
+#else
+#define D_COMMAND
+#define D_ARGS
+#endif
+static const ROM char command_letters[] = "LCA" Z_COMMAND "P" D_COMMAND "H";
+static const ROM uint8_t command_args[] = {
+    MOTION | 2, MOTION | 4, MOTION | 4, Z_ARGS 1, D_ARGS 0
+};
+
 /* The command in cur..end, as command number plan_seq. */
 static uint8_t run_command(void)
 {
+    IDATA uint16_t *a;
+    uint8_t k, coords, span;
     char cmd;
-    uint8_t err;
     skip_separators();
     if (cur >= end) {
         return E_OK;                      /* empty line */
@@ -428,140 +447,163 @@ static uint8_t run_command(void)
         return cmd_setting();
     }
 #endif
-    err = parse_args();
-    if (err) return err;
-    switch (cmd) {
-    case 'L':
-    case 'C':
-    case 'A':
-#ifdef ZAXIS
-    case 'Z':
-#endif
-        return cmd_motion(cmd);
-    case 'P':
-#ifdef HOST_LINK
-    case 'D':
-#endif
-        if (nargs != 1) return E_ARGS;
-        if (arg_neg || (cmd == 'P' && arg_mag[0] > 1)) return E_RANGE;
-        if (refused()) return refused();
-#ifdef HOST_LINK
-        if (cmd == 'D') return planner_dwell(arg_mag[0]);
-#endif
-        return planner_pen((uint8_t)arg_mag[0]);
-    case 'H':
-        if (nargs != 0) return E_ARGS;
+    k = parse_args();
+    if (k) return k;
+    for (k = 0; ; k++) {
+        if (!command_letters[k]) return E_UNKNOWN;
+        if (command_letters[k] == cmd) break;
+    }
+    k = command_args[k];
+    coords = 0;
+    span = 0;
+    if (k & MOTION) {
+        k -= MOTION;
+        coords = k;
+        span = 2;                         /* feed and exit */
+    }
+    if ((uint8_t)(nargs - k) > span) return E_ARGS;
+    a = arg_mag;
+    for (k = coords; k; k--, a++, arg_neg >>= 1) {
+        if (*a & 0x8000u) return E_RANGE;
+        if (arg_neg & 1) *a = 0 - *a;
+    }
+    if (arg_neg) return E_RANGE;          /* only coordinates are negative */
+    if (cmd == 'P' && arg_mag[0] > 1) return E_RANGE;
+    if (cmd == 'H') {
         if (st_running || queue_used()) return E_BUSY;
         stepper_zero();
         return E_OK;
-    default:
-        return E_UNKNOWN;
     }
+    if (alarm_code) return E_ALARM;
+#ifdef PANEL
+    if (PANEL_BUSY()) return E_BUSY;      /* the panel is drawing a figure */
+#endif
+    if (coords) {
+        /* feed and exit, after the coordinates (a), byte by byte to
+         * PLAN_FEED and PLAN_EXIT */
+        IDATA uint8_t *from = (IDATA uint8_t *)a;
+        IDATA uint8_t *to = (IDATA uint8_t *)&arg_mag[PLAN_FEED];
+        do {
+            *to++ = *from++;
+        } while (to != (IDATA uint8_t *)&arg_mag[PLAN_EXIT + 1]);
+        if (cmd == 'L') return planner_line();
+#ifdef ZAXIS
+        if (cmd == 'Z') return planner_z();
+#endif
+        return planner_arc(cmd == 'C');
+    }
+#ifdef HOST_LINK
+    if (cmd == 'D') return planner_dwell(arg_mag[0]);
+#endif
+    return planner_pen((uint8_t)arg_mag[0]);
 }
 
-/* "ok" or "err", then " N<seq>" for a machine line. */
-static void reply_start(const ROM char *word)
+#define RESEND 0x80     /* reply(RESEND | err): "rs N<expected_seq> E<err>" */
+
+/* "ok Q<free>" or "err E<err>", with " N<seq>" after the word for a
+ * machine line; or a request to resend (RESEND). */
+static void reply(uint8_t err)
 {
+    const ROM char *word = "ok";
+#ifdef HOST_LINK
+    IDATA uint16_t *seq = &plan_seq;
+#endif
+    if (err) word = "err";
+#ifdef HOST_LINK
+    if (err & RESEND) {
+        word = "rs";
+        seq = &expected_seq;
+        resend_asked = 1;
+    }
+#endif
     put_str(word);
 #ifdef HOST_LINK
     if (machine) {
         put_tag('N');
-        put_u16(plan_seq);
+        put_u16(*seq);
     }
 #endif
-}
-
-static void reply_ok(void)
-{
-    reply_start("ok");
-    put_tag('Q');
-    put_u16(QUEUE_FREE());
-    put_eol();
-}
-
-static void reply_err(uint8_t code)
-{
-    reply_start("err");
-    put_tag('E');
-    put_u16(code);
+    err &= (uint8_t)~RESEND;
+    if (err) {
+        put_tag('E');
+        put_u8(err);
+    } else {
+        put_free();
+    }
     put_eol();
 }
 
 #ifdef HOST_LINK
-static void reply_resend(uint8_t code)
+/* N<seq> <command> *<checksum>: 1 if the checksum matches and the sequence
+ * number parsed, into arg_mag[0]; the command is left in cur..end. */
+static uint8_t sequence_parsed(void)
 {
-    put_str("rs N");
-    put_u16(expected_seq);
-    put_tag('E');
-    put_u16(code);
-    put_eol();
-    resend_asked = 1;
+    if (*cur != 'N' || !line_star) return 0;
+    cur = line + line_star;
+    end = cur - 1;
+    if (!parse_u16() || *cur != 0 || arg_mag[0] != line_sum) return 0;
+    cur = line + 1;
+    while (*cur == ' ') cur++;
+    return parse_u16();
 }
-
 #endif
 
 static void execute_line(void)
 {
     uint8_t err;
+#ifdef HOST_LINK
+    uint16_t ahead;                       /* how far plan_seq is past expected_seq */
+#endif
 
     line[line_len] = 0;
     cur = line;
     end = line + line_len;
     skip_separators();
+    err = E_TOOLONG;
 #ifdef HOST_LINK
-    machine = (*cur == 'N') || line_star;
-    if (line_long) {
-        if (machine) reply_resend(E_TOOLONG); else reply_err(E_TOOLONG);
-        return;
-    }
-    if (!machine) {
-#else
-    if (line_long) {
-        reply_err(E_TOOLONG);
-        return;
+    machine = 0;
+    if (*cur == 'N' || line_star) {
+        machine = 1;
+        err = RESEND | E_TOOLONG;
     }
 #endif
-        plan_seq = 0;
-        err = run_command();
-        if (err) reply_err(err); else reply_ok();
+    if (line_long) {
+        reply(err);
+        return;
+    }
 #ifdef HOST_LINK
-        return;
-    }
-    /* N<seq> <command> *<checksum> */
-    if (*cur != 'N' || !line_star) {
-        reply_resend(E_CHECKSUM);
-        return;
-    }
-    end = line + (uint8_t)(line_star - 1);
-    cur = line + line_star;
-    if (!parse_u16() || *cur != 0 || arg_mag[0] != (((uint16_t)line_s2 << 8) | line_s1)) {
-        reply_resend(E_CHECKSUM);
-        return;
-    }
-    cur = line + 1;
-    while (*cur == ' ') cur++;
-    if (!parse_u16()) {
-        reply_resend(E_CHECKSUM);
-        return;
-    }
-    plan_seq = arg_mag[0];
-    if (plan_seq != expected_seq) {
-        if ((int16_t)(plan_seq - expected_seq) < 0) {
-            reply_ok();                   /* already executed: acknowledge again */
-        } else if (!resend_asked) {
-            reply_resend(E_SEQUENCE);
+    if (machine) {
+        if (!sequence_parsed()) {
+            reply(RESEND | E_CHECKSUM);
+            return;
         }
-        return;
-    }
-    resend_asked = 0;
-    err = run_command();
-    if (err == E_QUEUEFULL) {
-        reply_resend(E_QUEUEFULL);        /* not executed: the host sends it again */
-        return;
-    }
-    expected_seq++;
-    if (err) reply_err(err); else reply_ok();
+        plan_seq = arg_mag[0];
+        ahead = plan_seq - expected_seq;
+        if (ahead) {
+            if ((int16_t)ahead < 0) {
+                reply(E_OK);              /* already executed: acknowledge again */
+            } else if (!resend_asked) {
+                reply(RESEND | E_SEQUENCE);
+            }
+            return;
+        }
+        resend_asked = 0;
+    } else
 #endif
+    {
+        plan_seq = 0;
+    }
+    err = run_command();
+#ifdef HOST_LINK
+    if (machine) {
+        if (err == E_QUEUEFULL) {
+            reply(RESEND | E_QUEUEFULL);    /* not executed: the host sends it again */
+            return;
+        }
+        expected_seq++;
+    }
+#endif
+    reply(err);
 }
 
 static void receive_byte(uint8_t c)
@@ -570,56 +612,39 @@ static void receive_byte(uint8_t c)
         if (line_len || line_long) {
             execute_line();
         }
-        line_len = 0;
-#ifdef HOST_LINK
-        line_s1 = 0;
-        line_s2 = 0;
-        line_star = 0;
-#endif
-        line_long = 0;
+        line_clear();
         return;
     }
     if (line_len >= LINE_MAX) {
         line_long = 1;
         return;
     }
+    line[line_len++] = (char)c;
 #ifdef HOST_LINK
-    if (c == '*' && !line_star) {
-        line_star = (uint8_t)(line_len + 1);
-    } else if (!line_star) {
-        FLETCHER_ADD(line_s1, line_s2, c);
+    if (!line_star) {
+        if (c == '*') {
+            line_star = line_len;         /* the '*' is at line_len - 1 */
+        } else {
+            fletcher(&line_sum, c);
+        }
     }
 #endif
-    line[line_len++] = (char)c;
 }
 
 void protocol_poll(void)
 {
+    uint8_t c;
     if (rt_estop || rt_reset) {
         rt_reset = 0;
         HAL_TIMER_HALT();
         rx_tail = rx_flush_to;
-        line_len = 0;
-#ifdef HOST_LINK
-        line_s1 = 0;
-        line_s2 = 0;
-        line_star = 0;
-#endif
-        line_long = 0;
+        line_clear();
+        c = 0;                            /* a reset */
         if (rt_estop) {
             rt_estop = 0;
-            protocol_alarm(ALARM_ESTOP);
-        } else {
-            stepper_abort();
-            planner_flush();
-            st_hold = 0;
-            alarm_code = 0;
-#ifdef PANEL
-            panel_stop();
-#endif
-            put_str("[reset]");
-            put_eol();
+            c = ALARM_ESTOP;
         }
+        protocol_alarm(c);
     }
     if (rt_limit) {
         rt_limit = 0;
@@ -640,7 +665,7 @@ void protocol_poll(void)
         line_long = 1;                    /* bytes were lost: the line cannot be trusted */
     }
     while (rx_tail != rx_head) {
-        uint8_t c = rx_buf[rx_tail & (RX_SIZE - 1)];
+        c = rx_buf[rx_tail & (RX_SIZE - 1)];
         rx_tail++;
         receive_byte(c);
         if (c == '\n') break;             /* let the stepper start between lines */

@@ -13,8 +13,10 @@ extern uint8_t alarm_code;     /* 0 = no alarm; see ALARM_* */
 
 void protocol_init(void);      /* print the start-up banner */
 void protocol_poll(void);      /* one pass of the main loop */
+/* Stop at once: pulses, queue, hold and figure; alarm_code = code, and
+ * "[<alarm_text>]" to the host.  Code 0 is a reset: no alarm. */
 void protocol_alarm(uint8_t code);
-const ROM char *alarm_text(void);  /* "alarm estop" or "alarm limit", while alarm_code is set */
+const ROM char *alarm_text(void);  /* "alarm estop", "alarm limit", or "reset" without an alarm */
 #ifdef PANEL
 void protocol_lcd(const ROM char *text);   /* rewrite the LCD: position, then text */
 #endif

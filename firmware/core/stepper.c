@@ -228,17 +228,13 @@ void stepper_start(void)
 #ifdef PANEL
     st_port &= (uint8_t)~(BIT_X_DIR | BIT_Y_DIR);   /* the limit check must not see the last move's directions */
 #endif
-    st_load = 1;
-    st_pulse_x = 0;
-    st_pulse_y = 0;
-    st_level = 0;
+    stepper_abort();
     st_below = 0;
     st_level_left = HOLD_STEPS(0);
     /* The first interrupt loads the first segment, which takes several
      * hundred cycles: let the second, which emits the first pulse, come
      * when it is done, so that the ramp starts on time. */
     st_period = HAL_PERIOD(1024);
-    st_paused = 0;
     st_running = 1;
     HAL_TIMER_START(64);
 }
@@ -273,11 +269,13 @@ INLINE uint8_t load_segment(void)
 {
     XDATA uint8_t *src;
     FAST uint8_t *dst;
-    uint8_t n;
-    if (q_tail == q_head) {
+    uint8_t n, slot;
+    uint16_t brake;                  /* hold steps of the levels up to the exit level */
+    slot = q_tail;
+    if (slot == q_head) {
         return 0;
     }
-    src = (XDATA uint8_t *)&queue[q_tail];
+    src = (XDATA uint8_t *)&queue[slot];
     dst = (FAST uint8_t *)&st_seg;
     n = sizeof(segment_t);
     do {
@@ -298,7 +296,8 @@ INLINE uint8_t load_segment(void)
         st_ybase = st_seg.a != st_seg.steps;
         st_lf = (st_seg.a && st_seg.b) ? 0 : -1;
 #else
-        st_lf = st_seg.a ? 0 : -1;   /* a pure Y move must never take the F >= 0 branch */
+        st_lf = 0;
+        if (!st_seg.a) st_lf = -1;   /* a pure Y move must never take the F >= 0 branch */
 #endif
 #ifdef ZAXIS
         /* A Z move is a line along Y with c = 1 (planner_z). */
@@ -333,21 +332,21 @@ INLINE uint8_t load_segment(void)
     st_jx = st_cap >> 1;             /* half a step: the DDA rounds */
     st_jy = st_jx;
 #endif
-    st_brake_at = st_below - st_seg.exit_brake + st_level_left;
-#ifdef INTERP_COMPARE
-    n = q_tail;
-#endif
-    q_tail = QUEUE_NEXT(q_tail);
-    if (st_seg.exit && q_tail == q_head) {
+    n = slot + 1;                    /* QUEUE_NEXT without its int arithmetic */
+    if (n == QUEUE_SLOTS) n = 0;
+    q_tail = n;
+    brake = st_seg.exit_brake;
+    if (st_seg.exit && n == q_head) {
         /* Nothing follows yet: plan to stop rather than run off the queue's end. */
         st_seg.exit = 0;
-        st_brake_at += st_seg.exit_brake - HOLD_STEPS(0);
+        brake = HOLD_STEPS(0);
         st_underruns++;
     }
+    st_brake_at = st_below - brake + st_level_left;
 #ifdef INTERP_COMPARE
     /* An arc's iterations in its final quadrant (only the braking distance
      * above needed exit_brake). */
-    st_seg.exit_brake = queue_final[n];
+    st_seg.exit_brake = queue_final[slot];
 #endif
     st_cruising = 0;
     st_stale = 1;
@@ -361,29 +360,32 @@ INLINE uint8_t arc_next_move(void)
 {
     uint8_t mv, toward;
     mv = ((int8_t)(st_af >> 24) < 0) ? (uint8_t)(st_moves >> 4) : (uint8_t)(st_moves & 0x0F);
-    if (st_seg.crossings) {
-        return mv;
+    if (!st_seg.crossings) {
+        toward = st_seg.dirs;
+        if (!(mv & toward)) {
+            /* The other move of the quadrant, if it heads towards the end. */
+            mv = (st_moves | (st_moves >> 4)) & toward;
+            if (!mv) {
+                /* The end lies just off the staircase: walk straight onto it, X first. */
+                mv = toward & MV_X;
+                if (!mv) mv = toward;
+            }
+        }
     }
-    toward = st_seg.dirs;
-    if (mv & toward) {
-        return mv;
-    }
-    /* The other move of the quadrant, if it heads towards the end. */
-    mv = (st_moves | (st_moves >> 4)) & toward;
-    if (mv) {
-        return mv;
-    }
-    /* The end lies just off the staircase: walk straight onto it, X first. */
-    return (toward & MV_X) ? (toward & MV_X) : toward;
+    return mv;
 }
 #endif
 
 /* The code is laid out for the common case, a line at cruise speed: it runs
- * straight through to the end with one test per condition. */
+ * straight through to the end with one test per condition.  What happens
+ * once per segment or quadrant (cruise set-up, an arc's turn into the next
+ * quadrant) sits after the end, so that the jumps around the steps stay
+ * short. */
 STEPPER_ISR
 {
     uint8_t mv;
     int16_t c;
+    uint16_t hold;
 
     HAL_TIMER_ADVANCE(st_period);
 #ifdef PANEL
@@ -461,11 +463,11 @@ STEPPER_ISR
         goto load;
     }
 run:
+    if (HOLDING && st_level == 0 && st_seg.kind != SEG_DWELL) {
+        goto pause;                  /* (a dwell runs its time out) */
+    }
     if (!st_line) {
         goto not_line;
-    }
-    if (HOLDING && st_level == 0) {
-        goto pause;
     }
 #if defined(INTERP_DDA)
     /* DDA: each iteration adds |dx| and |dy| to the integrators' remainders;
@@ -518,8 +520,7 @@ run:
     }
 #endif
     if (!st_cruising) {
-        st_seg.steps--;
-        goto ramp;
+        goto count;
     }
 cruise_step:
     /* Cruising: the step count is kept as its distance to the braking point,
@@ -550,13 +551,8 @@ cruise_end:
 not_line:
     if (st_seg.kind == SEG_DWELL) {     /* also a pen's settle time */
         st_period = HAL_PERIOD(DWELL_PERIOD);
-        if (--st_seg.steps == 0) {
-            st_load = 1;
-        }
-        return;
-    }
-    if (HOLDING && st_level == 0) {
-        goto pause;
+        st_seg.steps--;
+        goto done;
     }
     /* Arc.  F = x^2 + y^2 - R^2 changes by 2c+1 when a coordinate c becomes
      * c+1, by -2c+1 when it becomes c-1 (point-by-point comparison and
@@ -677,8 +673,9 @@ arc_move_next:
         st_pulse_x = 1;
         st_pulse_y = 0;
         if (mv & MV_NEG) {
-            c = -st_seg.a;
-            st_seg.a--;
+            c = st_seg.a - 1;
+            st_seg.a = c;
+            c = ~c;                  /* minus the coordinate before the move */
             st_port |= BIT_X_DIR;
         } else {
             c = st_seg.a;
@@ -689,8 +686,9 @@ arc_move_next:
         st_pulse_x = 0;
         st_pulse_y = 1;
         if (mv & MV_NEG) {
-            c = -st_seg.b;
-            st_seg.b--;
+            c = st_seg.b - 1;
+            st_seg.b = c;
+            c = ~c;                  /* minus the coordinate before the move */
             st_port |= BIT_Y_DIR;
         } else {
             c = st_seg.b;
@@ -698,7 +696,7 @@ arc_move_next:
             st_port &= (uint8_t)~BIT_Y_DIR;
         }
     }
-    st_af += (int32_t)(uint32_t)((uint32_t)(int32_t)c << 1) + 1;   /* 2c + 1, shifted unsigned: defined for negative c */
+    st_af += (int32_t)((uint32_t)(int32_t)c << 1 | 1);   /* 2c + 1 (2c is even): shifted unsigned, defined for negative c */
 #endif
 #ifndef DRIVE_PHASE
     HAL_PORT_OUT(st_port);           /* direction set a whole period before its pulse */
@@ -716,67 +714,14 @@ arc_move_next:
             c = st_seg.a;
         }
         if (c != 0 && (c < 0) == st_end_neg) {
-#ifdef INTERP_DDA
-            /* The axis along the half-axis turns round: its remainder, the
-             * part of a step it has gone past its position, now lies the
-             * other way. */
-            c = st_cap - 1;
-            if (st_end_x0) st_jy ^= c; else st_jx ^= c;
-#endif
-            st_seg.quadrant = arc_turns[st_seg.quadrant] >> 4;
-            arc_enter_quadrant();
-            if (--st_seg.crossings == 0) {
-                /* Final quadrant: the remaining count is now exact, and the
-                 * moves towards the end are known (same quadrant: the
-                 * differences do not overflow). */
-                st_seg.dirs = 0;
-                c = st_seg.c - st_seg.a;
-                if (c < 0) {
-                    st_seg.dirs = MV_XN;
-                    c = -c;
-                } else if (c) {
-                    st_seg.dirs = MV_XP;
-                }
-                st_seg.steps = (uint16_t)c;
-                c = st_seg.d - st_seg.b;
-                if (c < 0) {
-                    st_seg.dirs |= MV_YN;
-                    c = -c;
-                } else if (c) {
-                    st_seg.dirs |= MV_YP;
-                }
-                st_seg.steps += (uint16_t)c;
-#if defined(INTERP_COMPARE)
-                /* The iterations to the end, as the planner counted them
-                 * (none if the end is here). */
-                if (st_seg.dirs) {
-                    st_seg.steps = st_seg.exit_brake;
-                }
-#elif defined(INTERP_DDA)
-                /* Steps to iterations, at least 1 unless the end is here
-                 * (then none).  2^n / R is at least 4/3 when the radius
-                 * (the coordinate along the half-axis) is under 3/4 of the
-                 * capacity: then the steps themselves are a lower bound.
-                 * (Not more: the final correction walks one step per
-                 * iteration.) */
-                c = st_seg.a | st_seg.b;
-                if (c < 0) c = -c;
-                if ((uint16_t)c >= st_cap - (st_cap >> 2)) {
-                    st_seg.steps = ARC_ITERATIONS(st_seg.steps);
-                }
-                if (!st_seg.steps && st_seg.dirs) {
-                    st_seg.steps = 1;
-                }
-#endif
-                goto ramp;
-            }
+            goto turn;
         }
     in_quadrant:
         if (st_cruising) {
             goto cruise_step;
         }
-        if (--st_seg.steps == 0) {
-            st_seg.steps = 1;        /* an estimate: the count runs out at the end, not before */
+        if (st_seg.steps == 1) {
+            goto ramp;               /* an estimate: the count runs out at the end, not before */
         }
     } else {
 #ifdef INTERP_DIAGONAL
@@ -791,8 +736,8 @@ arc_move_next:
         if (st_cruising) {
             goto cruise_step;
         }
-        if (--st_seg.steps == 0) {
-            st_seg.steps = 1;
+        if (st_seg.steps == 1) {
+            goto ramp;
         }
 #else
         /* An axis that reached its end coordinate moves no more. */
@@ -804,56 +749,53 @@ arc_move_next:
         if (st_cruising) {
             goto cruise_step;
         }
-        st_seg.steps--;
 #endif
     }
-
+count:
+    st_seg.steps--;
 ramp:
     /* Brake to the exit level in time, else climb to the cruise level. */
     st_cruising = 0;
-    if (st_level && (HOLDING || st_level > st_seg.cruise ||
-                     (st_level > st_seg.exit && st_seg.steps <= st_brake_at))) {
-        /* Brake (or slow down for a feed hold). */
-        st_brake_at--;
-        if (--st_level_left == 0) {
+    mv = 0;                          /* brake (or slow down for a feed hold) */
+    if (!(st_level && (HOLDING || st_level > st_seg.cruise ||
+                       (st_level > st_seg.exit && st_seg.steps <= st_brake_at)))) {
+        if (st_level >= st_seg.cruise || HOLDING) {
+            goto cruise;
+        }
+        mv = 1;                      /* climb towards the cruise level */
+    }
+    st_brake_at--;
+    if (--st_level_left == 0) {
+        if (!mv) {
             st_level--;
             st_level_left = HOLD_STEPS(st_level);
             st_below -= st_level_left;
             st_stale = 1;
-        }
-    } else if (st_level < st_seg.cruise && !HOLDING) {
-        /* Climb towards the cruise level. */
-        st_brake_at--;
-        if (--st_level_left == 0) {
+        } else {
             /* Here st_brake_at counts the levels between this one and the
              * exit: the steps braking needs once this level is done (at the
              * exit level itself it is minus that level's hold, so the sums
              * are taken modulo 2^16 as the 8051 does). */
             st_level_left = HOLD_STEPS(st_level);
+            hold = HOLD_STEPS(st_level + 1);
             if (st_level < st_seg.exit ||
-                st_seg.steps >= (uint16_t)(st_brake_at + st_level_left + HOLD_STEPS(st_level + 1))) {
+                st_seg.steps >= (uint16_t)(st_brake_at + st_level_left + hold)) {
                 /* Room to brake from the next level too: climb. */
                 st_brake_at += st_level_left;
                 st_below += st_level_left;
                 st_level++;
-                st_level_left = HOLD_STEPS(st_level);
+                st_level_left = hold;
                 st_stale = 1;
             } else if (st_seg.steps <= st_brake_at) {
                 st_level_left = 1;           /* no step to spare: brake at once */
-            } else if (st_seg.steps - st_brake_at < st_level_left) {
-                st_level_left = st_seg.steps - st_brake_at;   /* stay only while braking still arrives */
+            } else {
+                hold = st_seg.steps - st_brake_at;
+                if (hold < st_level_left) {
+                    st_level_left = hold;    /* stay only while braking still arrives */
+                }
             }
             st_brake_at += st_level_left;
         }
-    } else {
-        /* Cruise at the commanded feed until the braking point (never, if
-         * the exit level is not below this one). */
-        st_period = st_seg.cruise_period;
-        st_stale = 1;
-        st_cruise_to = (st_level > st_seg.exit) ? st_brake_at : 0;
-        CRUISE_SET(st_seg.steps - st_cruise_to);
-        st_cruising = 1;
-        goto done;
     }
     if (st_stale) {
         st_stale = 0;
@@ -889,4 +831,76 @@ pause:
     st_paused = 1;
     st_pulse_x = 0;
     st_pulse_y = 0;
+    return;
+
+cruise:
+    /* Cruise at the commanded feed until the braking point (never, if
+     * the exit level is not below this one). */
+    st_period = st_seg.cruise_period;
+    st_stale = 1;
+    st_cruise_to = 0;
+    if (st_level > st_seg.exit) st_cruise_to = st_brake_at;
+    hold = st_seg.steps - st_cruise_to;
+    CRUISE_SET(hold);
+    st_cruising = 1;
+    goto done;
+
+turn:
+    /* The arc has crossed into the next quadrant. */
+#ifdef INTERP_DDA
+    /* The axis along the half-axis turns round: its remainder, the
+     * part of a step it has gone past its position, now lies the
+     * other way. */
+    c = st_cap - 1;
+    if (st_end_x0) st_jy ^= c; else st_jx ^= c;
+#endif
+    st_seg.quadrant = arc_turns[st_seg.quadrant] >> 4;
+    arc_enter_quadrant();
+    if (--st_seg.crossings) {
+        goto in_quadrant;
+    }
+    /* Final quadrant: the remaining count is now exact, and the
+     * moves towards the end are known (same quadrant: the
+     * differences do not overflow). */
+    mv = 0;
+    c = st_seg.c - st_seg.a;
+    if (c < 0) {
+        mv = MV_XN;
+        c = -c;
+    } else if (c) {
+        mv = MV_XP;
+    }
+    hold = (uint16_t)c;
+    c = st_seg.d - st_seg.b;
+    if (c < 0) {
+        mv |= MV_YN;
+        c = -c;
+    } else if (c) {
+        mv |= MV_YP;
+    }
+    st_seg.steps = hold + (uint16_t)c;
+    st_seg.dirs = mv;
+#if defined(INTERP_COMPARE)
+    /* The iterations to the end, as the planner counted them
+     * (none if the end is here). */
+    if (st_seg.dirs) {
+        st_seg.steps = st_seg.exit_brake;
+    }
+#elif defined(INTERP_DDA)
+    /* Steps to iterations, at least 1 unless the end is here
+     * (then none).  2^n / R is at least 4/3 when the radius
+     * (the coordinate along the half-axis) is under 3/4 of the
+     * capacity: then the steps themselves are a lower bound.
+     * (Not more: the final correction walks one step per
+     * iteration.) */
+    c = st_seg.a | st_seg.b;
+    if (c < 0) c = -c;
+    if ((uint16_t)c >= st_cap - (st_cap >> 2)) {
+        st_seg.steps = ARC_ITERATIONS(st_seg.steps);
+    }
+    if (!st_seg.steps && st_seg.dirs) {
+        st_seg.steps = 1;
+    }
+#endif
+    goto ramp;
 }

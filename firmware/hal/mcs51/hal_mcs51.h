@@ -49,10 +49,12 @@
 #define LCD_RS 0x08
 #define LCD_E  0x10
 #define SEG_SELECT 0xE0
-extern __bit hal_lcd_rs;
 void hal_lcd_write(uint8_t b);
 uint8_t hal_key_scan(void);
-#define HAL_LCD_WRITE(b, rs) do { hal_lcd_rs = (rs); hal_lcd_write(b); } while (0)
+/* rs is the literal 0 (a command) or 1 (data): RS is set by one orl or anl. */
+#define HAL_LCD_WRITE(b, rs) do { HAL_LCD_RS_##rs(); hal_lcd_write(b); } while (0)
+#define HAL_LCD_RS_0() (P3 &= (uint8_t)~LCD_RS)
+#define HAL_LCD_RS_1() (P3 |= LCD_RS)
 #define HAL_KEY_SCAN() hal_key_scan()
 #define HAL_SEG_SHOW(i, pattern) do {                                       \
         P0 = 0;                                                             \

@@ -34,7 +34,7 @@ void uart_isr(void) __interrupt(4)
 
 void hal_putc(uint8_t c)
 {
-    while ((uint8_t)(tx_head - tx_tail) >= TX_SIZE) {
+    while ((uint8_t)(tx_head - tx_tail) & TX_SIZE) {   /* full: TX_SIZE bytes, never more */
         /* the transmit interrupt drains the ring; steps go on meanwhile */
     }
     tx_buf[tx_head & (TX_SIZE - 1)] = c;
@@ -51,13 +51,40 @@ void hal_putc(uint8_t c)
  * work may wait, the steps may not). */
 #define TICK_RELOAD ((uint16_t)(0 - 922))   /* 922 machine cycles: 1.0004 ms */
 #ifdef BAUD_115200
-#define TICK_INIT() (TMOD = (TMOD & 0x0F) | 0x10, TR1 = 1)
+#define TICK_INIT()                         /* TR1 in TCON_INIT */
 #define TICK_DUE() (TF1 && (TF1 = 0, TH1 = (uint8_t)(TICK_RELOAD >> 8), TL1 = (uint8_t)TICK_RELOAD, 1))
 #else
 #define TICK_INIT() (RCAP2H = (uint8_t)(TICK_RELOAD >> 8), RCAP2L = (uint8_t)TICK_RELOAD, TR2 = 1)
 #define TICK_DUE() (TF2 && (TF2 = 0, 1))
 #endif
+#endif
 
+/* Timer 0 in mode 1 (16 bits): the step timer.  Timer 1 in mode 2 (8-bit
+ * auto-reload): the baud rate; with Timer 2 making it, mode 1 for the
+ * panel's tick, reloaded by hand. */
+#ifdef BAUD_115200
+#define TMOD_INIT 0x11
+#else
+#define TMOD_INIT 0x21
+#endif
+/* Timer 1 runs (TR1) for the baud rate or the panel's tick; the panel's
+ * e-stop (INT0) is edge-triggered (IT0).  Timer 0 (the steps) and the e-stop
+ * have the high priority, the UART the low; they run once EA is set. */
+#ifdef PANEL
+#define TCON_INIT 0x41              /* TR1, IT0 */
+#define IP_INIT   0x03              /* PT0, PX0 */
+#define IE_INIT   0x13              /* ES, ET0, EX0 */
+#else
+#ifdef BAUD_115200
+#define TCON_INIT 0x00
+#else
+#define TCON_INIT 0x40
+#endif
+#define IP_INIT   0x02
+#define IE_INIT   0x12
+#endif
+
+#ifdef PANEL
 /* The e-stop button: its falling edge stops the pulses at once, the main
  * loop raises the alarm (and keeps raising it while the button is held). */
 void estop_isr(void) __interrupt(0)
@@ -65,12 +92,10 @@ void estop_isr(void) __interrupt(0)
     RT_STOP(rt_estop);
 }
 
-__bit hal_lcd_rs;
-
+/* After HAL_LCD_WRITE has set RS. */
 void hal_lcd_write(uint8_t b)
 {
     uint8_t n = 20;
-    if (hal_lcd_rs) P3 |= LCD_RS; else P3 &= (uint8_t)~LCD_RS;
     P0 = b;
     P3 |= LCD_E;                /* one machine cycle high: 1.09 us, the LCD needs 0.23 */
     P3 &= (uint8_t)~LCD_E;      /* the LCD takes the byte on this edge */
@@ -79,54 +104,44 @@ void hal_lcd_write(uint8_t b)
     }
 }
 
-/* The bit number of the one zero bit of a nibble, K_NONE if none or several. */
+/* The bit number of the one zero bit of a nibble; 0xFF if none or several. */
 static const __code uint8_t zero_bit[16] = {
-    K_NONE, K_NONE, K_NONE, K_NONE, K_NONE, K_NONE, K_NONE, 3,
-    K_NONE, K_NONE, K_NONE, 2, K_NONE, 1, 0, K_NONE,
+    0xFF, 0xFF, 0xFF, 0xFF, 0xFF, 0xFF, 0xFF, 3,
+    0xFF, 0xFF, 0xFF, 2, 0xFF, 1, 0, 0xFF,
 };
 
 /* Line reversal (seed 000, 3.1.1): rows low, read the columns; columns
- * low, read the rows.  Row * 4 + column, or K_NONE. */
+ * low, read the rows.  Row * 4 + column; 0xFC or more (K_NONE or above)
+ * when either has no zero bit or several. */
 uint8_t hal_key_scan(void)
 {
     uint8_t col, row;
     P2 = 0xF0;
     col = zero_bit[P2 >> 4];
     P2 = 0x0F;
-    row = zero_bit[P2 & 0x0F];
+    row = zero_bit[(uint8_t)(P2 & 0x0F)];
     P2 = 0xFF;
-    if (col == K_NONE || row == K_NONE) return K_NONE;
     return (uint8_t)((row << 2) | col);
 }
 #endif
 
-static void uart_init(void)
-{
-    SCON = 0x50;                /* mode 1: 8 data bits, receiver on */
-#ifdef BAUD_115200
-    RCAP2H = 0xFF;              /* Timer 2 as baud generator: 11.0592 MHz / 32 / 3 */
-    RCAP2L = 0xFD;
-    T2CON = 0x34;               /* RCLK, TCLK, TR2 */
-#else
-    TMOD = (TMOD & 0x0F) | 0x20;  /* Timer 1 mode 2: 9600 baud */
-    TH1 = 0xFD;
-    TL1 = 0xFD;
-    TR1 = 1;
-#endif
-    ES = 1;
-}
-
 void main(void)
 {
-    TMOD = (TMOD & 0xF0) | 0x01;  /* Timer 0 mode 1: 16-bit step timer */
-    PT0 = 1;                      /* steps preempt the UART */
-    ET0 = 1;
-    uart_init();
+    TMOD = TMOD_INIT;
+    SCON = 0x50;                  /* UART mode 1: 8 data bits, receiver on */
+#ifdef BAUD_115200
+    RCAP2H = 0xFF;                /* Timer 2 as baud generator: 11.0592 MHz / 32 / 3 */
+    RCAP2L = 0xFD;
+    T2CON = 0x34;                 /* RCLK, TCLK, TR2 */
+#else
+    TH1 = 0xFD;                   /* 9600 baud */
+    TL1 = 0xFD;
+#endif
+    TCON = TCON_INIT;
+    IP = IP_INIT;
+    IE = IE_INIT;
     stepper_init();
 #ifdef PANEL
-    IT0 = 1;                      /* e-stop: falling edge */
-    PX0 = 1;
-    EX0 = 1;
     TICK_INIT();
     panel_init();
 #endif
