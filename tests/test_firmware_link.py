@@ -31,7 +31,7 @@ sys.path.insert(0, str(FIRMWARE / "tools"))
 import s51sim  # noqa: E402
 
 REPLY = rb"(?:ok|err|rs)[^\r\n]*\r\n"
-IMAGES = {"serial": {}}
+IMAGES = {"serial": {}, "panel": {"PANEL": "1"}}
 
 
 class Link:

@@ -42,7 +42,7 @@ sys.path.insert(0, str(FIRMWARE / "tools"))
 import s51sim  # noqa: E402
 import gen_figures  # noqa: E402
 
-STATUS = re.compile(r"<(\w+) X(-?\d+) Y(-?\d+) Q(\d+) P(\d+) A(\d+)>")
+STATUS = re.compile(r"<(\w+) X(-?\d+) Y(-?\d+) Q(\d+) N\d+ S\d+ P(\d+) U\d+ A(\d+)>")
 TICK_PS = 10**12 / 11_059_200              # one clock of the 11.0592 MHz crystal
 
 def key_pins(code: int) -> int:
@@ -95,7 +95,7 @@ class Board:
 
     def status(self) -> re.Match:
         self.sim.write(b"?")
-        text = self.sim.read_until(rb"<[^>]*>\r\n").decode()
+        text = self.sim.read_until(rb"<[^>]*>[^\n]*\n").decode()
         self.serial += text.encode()
         m = STATUS.search(text)
         assert m, text

@@ -9,7 +9,6 @@ from __future__ import annotations
 
 import ctypes
 import math
-import re
 import sys
 
 import pytest
@@ -20,6 +19,8 @@ from panel_keys import (JOG, K_CAR, K_CAR_REV, K_CIRCLE, K_CONE, K_DIAG, K_DIAMO
                         assert_on_figure, digit_key, figure_segments)
 from vcd_trace import SEGMENTS
 from plotter_bridge.firmware_core import FirmwareCore
+from plotter_bridge.protocol import (ERROR_TEXT, RT_RESET, RT_STATUS, Banner, Err, Ok, Resend, Status,
+                                     machine_line, parse_reply)
 
 sys.path.insert(0, str(FIRMWARE / "tools"))
 import gen_figures  # noqa: E402
@@ -280,11 +281,31 @@ def test_limit_switch_stops_only_the_move_towards_it(panel):
     assert panel.position == (2 * JOG, JOG)
 
 
-def test_status_of_the_panel_image(panel):
-    panel.core.receive(b"?")
-    panel.tick(2)
-    assert panel.core.transmitted().endswith(b"<Idle X0 Y0 Q6 P0 A0>\r\n")
-    panel.core.receive(b"N1 L 10 0 *123\n")       # no machine lines in this image
-    panel.tick(2)
-    assert re.match(rb"err E\d+\r\n$", panel.core.transmitted())
-    assert panel.position == (0, 0)
+def test_the_panel_image_speaks_the_host_link(panel):
+    """The serial controller's whole protocol, checked with the host's own
+    encoder and parser: checksummed banner, replies and status, machine
+    lines and resends, `$` settings (the trapezoid only), and E10 for motion
+    while a figure is drawn."""
+    def send(data: bytes):
+        panel.core.receive(data)
+        panel.tick(3)
+        return parse_reply(panel.core.transmitted().decode().splitlines()[-1])
+
+    assert isinstance(parse_reply(panel.core.transmitted().decode().splitlines()[0]), Banner)
+    assert send(machine_line(0, "L 100 0")) == Ok(0, 5)
+    damaged = bytearray(machine_line(1, "P 1"))
+    damaged[2] ^= 0x01
+    assert send(bytes(damaged)) == Resend(1, 2)
+    assert send(machine_line(1, "$0=2")) == Err(1, 10, ERROR_TEXT[10])     # moving
+    panel.run(2000)
+    assert panel.position == (100, 0)
+    assert send(machine_line(2, "$1=1")) == Err(2, 11, ERROR_TEXT[11])     # no exponential ramp
+    assert send(machine_line(3, "$0=2")) == Ok(3, 6)
+    status = send(RT_STATUS)
+    assert isinstance(status, Status) and (status.state, status.x, status.next_seq) == ("Idle", 100, 4)
+    panel.press(K_STAR)
+    panel.tick(300)
+    assert send(machine_line(4, "L 100 0")) == Err(4, 10, ERROR_TEXT[10])
+    panel.core.receive(RT_RESET)                  # ends the figure too
+    panel.tick(5)
+    assert send(machine_line(5, "L 0 10")) == Ok(5, 5)

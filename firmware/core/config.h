@@ -38,15 +38,21 @@
 
 /* The front panel (build option PANEL, README.md: keypad, LCD, 7-segment
  * display, built-in figures, e-stop and limit inputs, core/panel.h).  Its
- * image talks to a person at a serial terminal; it has no room for the
- * host link (HOST_LINK): machine lines with sequence numbers and checksums,
- * checksummed replies, feed hold, the dwell and `$` settings commands (the
- * settings are fixed, planner.h) and the exponential ramp. */
+ * image speaks the whole host link as well; only the exponential ramp
+ * ($1=1) is left out to make room. */
 #ifdef PANEL
 #define RAMP_TRAPEZOID_ONLY 1
 #define RT_STAR     'a'             /* real-time byte between lines: draw the star (seed 000, 4.3) */
-#elif !defined(HOST_LINK)
-#define HOST_LINK 1                 /* (make PANEL=1 HOST_LINK=1 measures both together) */
+#endif
+#define HOST_LINK 1                 /* every image: sequence numbers, checksums, resends (PROTOCOL.md) */
+
+/* The host link's two sequence counters (planner.h, protocol.c) sit where
+ * the image has room: internal RAM is full in the panel image, XRAM in the
+ * comparison-integration one (its queue_final, planner.c). */
+#ifdef INTERP_COMPARE
+#define SEQ_MEM IDATA
+#else
+#define SEQ_MEM XDATA
 #endif
 
 #if defined(DRIVE_PHASE3) || defined(DRIVE_PHASE3D) || defined(DRIVE_UNIPOLAR)

@@ -19,11 +19,9 @@ XDATA uint16_t queue_final[QUEUE_SLOTS];
 #endif
 FAST volatile uint8_t q_head, q_tail;
 IDATA uint16_t plan_arg[6];
-IDATA uint16_t plan_seq;
+SEQ_MEM uint16_t plan_seq;
 
-#ifndef PANEL
 IDATA uint16_t setting[SETTINGS] = {1, RAMP_TRAPEZOID, 2000, 150};
-#endif
 
 #define FEED_MIN 15u    /* slower would overflow the 16-bit step period */
 

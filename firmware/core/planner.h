@@ -47,7 +47,7 @@ uint8_t queue_used(void);
 #define PLAN_FEED 4
 #define PLAN_EXIT 5
 extern IDATA uint16_t plan_arg[6];  /* coordinates as int16_t */
-extern IDATA uint16_t plan_seq;   /* sequence number of the command (0 when typed) */
+extern SEQ_MEM uint16_t plan_seq;   /* sequence number of the command (0 when typed) */
 
 uint8_t planner_line(void);
 #ifdef ZAXIS
@@ -64,16 +64,7 @@ void planner_flush(void);
 #define SET_FEED  2     /* steps/s when a command gives none */
 #define SET_PEN   3     /* settle time after a pen change, ms */
 #define SETTINGS  4
-#ifdef PANEL
-/* Fixed at their defaults (config.h): constants the compiler folds. */
-#define SETTING(k) SETTING_FIXED_##k
-#define SETTING_FIXED_SET_ACCEL 1
-#define SETTING_FIXED_SET_SHAPE RAMP_TRAPEZOID
-#define SETTING_FIXED_SET_FEED  2000
-#define SETTING_FIXED_SET_PEN   150
-#else
 #define SETTING(k) setting[k]
 extern IDATA uint16_t setting[SETTINGS];
-#endif
 
 #endif

@@ -31,7 +31,7 @@ static XDATA uint16_t line_sum, tx_sum;
 static FAST uint8_t line_star;    /* index of '*' + 1, 0 if none */
 static FLAG resend_asked;         /* an rs is outstanding: drop later lines quietly */
 static FLAG machine;              /* the line being executed is in machine form */
-static IDATA uint16_t expected_seq;  /* next sequence number to execute */
+static SEQ_MEM uint16_t expected_seq;  /* next sequence number to execute */
 #endif
 static FLAG line_long;            /* the line overflowed LINE_MAX */
 
@@ -367,7 +367,7 @@ static uint8_t parse_args(void)
     return E_OK;
 }
 
-#if defined(HOST_LINK) && !defined(PANEL)    /* the panel image's settings are fixed */
+#ifdef HOST_LINK
 /* $0 acceleration divisor, $1 ramp shape, $2 default feed, $3 pen delay. */
 static RAMP_ROM uint16_t setting_range[SETTINGS][2] = {   /* least, greatest */
     {1, 50}, {0, RAMP_SHAPES - 1}, {15, 65535u}, {1, 5000},
@@ -442,7 +442,7 @@ static uint8_t run_command(void)
         return E_OK;                      /* empty line */
     }
     cmd = *cur++;
-#if defined(HOST_LINK) && !defined(PANEL)
+#ifdef HOST_LINK
     if (cmd == '$') {
         return cmd_setting();
     }
@@ -506,7 +506,7 @@ static void reply(uint8_t err)
 {
     const ROM char *word = "ok";
 #ifdef HOST_LINK
-    IDATA uint16_t *seq = &plan_seq;
+    SEQ_MEM uint16_t *seq = &plan_seq;
 #endif
     if (err) word = "err";
 #ifdef HOST_LINK

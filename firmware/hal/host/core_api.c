@@ -76,12 +76,10 @@ void core_reset(void)
     rx_overflow = 0;
     rx_between_lines = 1;
     rt_status = rt_resume = rt_estop = rt_reset = 0;
-#ifndef PANEL
     setting[SET_ACCEL] = 1;
     setting[SET_SHAPE] = RAMP_TRAPEZOID;
     setting[SET_FEED] = 2000;
     setting[SET_PEN] = 150;
-#endif
     stepper_init();
 #ifdef PANEL
     host_key = 0xFF;
