@@ -8,6 +8,7 @@ core (the same C as the 8051 image), measured on its simulated clock:
 - `$0` holds every level longer: the acceleration divided by it;
 - `$2` is the feed of a line that gives none, `$3` the pause after a pen
   change;
+- a stop holds the start rate as long as a start does;
 - out-of-range values, unknown keys and changes while moving are refused
   and change nothing.
 """
@@ -111,6 +112,24 @@ def test_acceleration_divisor_holds_each_level_longer(core):
     assert send(core, "$1=1").startswith("ok")
     slow = climb(move_x(core, -30000))
     assert slow[-1][0] == pytest.approx(4 * exponential_time(0.9 * TOP), rel=0.05)
+
+
+@pytest.mark.parametrize("shape", [0, 1])
+@pytest.mark.parametrize("divisor", [1, 3, 8])
+def test_a_stop_ends_at_the_start_rate_as_a_start_begins(core, shape, divisor):
+    """A start holds the lowest level (the rate a motor starts at without a
+    ramp) for its hold; a stop must come down to it and hold it as long, not
+    stop from the level above."""
+    assert send(core, f"$1={shape}").startswith("ok")
+    assert send(core, f"$0={divisor}").startswith("ok")
+    hold = gen_ramp.tables()["exp" if shape else "trap"][2][0] * divisor
+    for dx in (300, -3000):
+        rates = [CYCLES_PER_S / s.cycles for s in move_x(core, dx)[1:]]
+        slow = [r <= gen_ramp.R0 * 1.01 for r in rates]
+        at_start = slow.index(False) + 1                  # the first step is the start's
+        at_end = slow[::-1].index(False)
+        assert at_start == hold
+        assert hold <= at_end <= hold + 1
 
 
 def test_default_feed_is_the_cruise_of_a_line_without_one(core):

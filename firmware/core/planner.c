@@ -79,7 +79,9 @@ static uint8_t commit(void)
 
 /* The highest ramp level whose rate does not exceed *rate.  Also leaves in
  * plan.exit_brake the hold steps (times the multiplier) of the levels up to
- * it: the braking distance to that level. */
+ * it, which the step interrupt takes off the braking distance: the segment
+ * ends as it reaches that level.  Level 0 takes off nothing, so a stop
+ * runs level 0's hold at the start rate, as a start does. */
 static uint8_t level_for_rate(IDATA uint16_t *ratep)
 {
     uint16_t rate = *ratep;
@@ -97,7 +99,7 @@ static uint8_t level_for_rate(IDATA uint16_t *ratep)
         k++;
         sum += (uint16_t)((uint8_t)holds[k] * (uint8_t)SETTING(SET_ACCEL));
     }
-    plan.exit_brake = sum;
+    plan.exit_brake = k ? sum : 0;
     return k;
 }
 

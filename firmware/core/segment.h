@@ -36,7 +36,7 @@ typedef struct {
     uint8_t  cruise;        /* ramp level to accelerate to */
     uint8_t  exit;          /* ramp level to leave the segment at */
     uint16_t cruise_period; /* HAL_PERIOD(machine cycles per step at the commanded feed) */
-    uint16_t exit_brake;    /* hold steps of the ramp levels up to the exit level, scaled */
+    uint16_t exit_brake;    /* hold steps of the ramp levels up to the exit level, scaled (0 for level 0) */
 } segment_t;
 
 #endif

@@ -270,7 +270,7 @@ INLINE uint8_t load_segment(void)
     XDATA uint8_t *src;
     FAST uint8_t *dst;
     uint8_t n, slot;
-    uint16_t brake;                  /* hold steps of the levels up to the exit level */
+    uint16_t brake;                  /* hold steps of the levels up to the exit level (none for 0) */
     slot = q_tail;
     if (slot == q_head) {
         return 0;
@@ -339,7 +339,7 @@ INLINE uint8_t load_segment(void)
     if (st_seg.exit && n == q_head) {
         /* Nothing follows yet: plan to stop rather than run off the queue's end. */
         st_seg.exit = 0;
-        brake = HOLD_STEPS(0);
+        brake = 0;                   /* as the planner's for level 0 */
         st_underruns++;
     }
     st_brake_at = st_below - brake + st_level_left;
