@@ -132,6 +132,25 @@ def test_a_stop_ends_at_the_start_rate_as_a_start_begins(core, shape, divisor):
         assert hold <= at_end <= hold + 1
 
 
+@pytest.mark.parametrize("options", [{"INTERP": "dda"}, {"INTERP": "compare"}, {"ZAXIS": "1"}],
+                         ids=["dda", "compare", "zaxis"])
+def test_the_option_images_have_both_ramps(options):
+    """Their ramps count step interrupts (iterations, README.md): the
+    interrupts' own periods follow the curve `$1` picks."""
+    core = FirmwareCore(host_library(**options))
+    try:
+        for shape, when in ((1, exponential_time), (0, trapezoid_time), (1, exponential_time)):
+            assert send(core, f"$1={shape}").startswith("ok")
+            x = core.position[0]
+            dues = list(core.interrupts([f"L 8000 0 {TOP}"]))
+            assert core.position == (x + 8000, 0)
+            up = climb([Step(1, 0, due) for due in dues])
+            assert time_error(up, when) <= 3 * (gen_ramp.DT_EXP if shape else gen_ramp.DT_TRAP)
+        assert send(core, "$1=2") == "err E11"
+    finally:
+        core.close()
+
+
 def test_default_feed_is_the_cruise_of_a_line_without_one(core):
     assert send(core, "$2=1000").startswith("ok")
     assert send(core, "L 3000 0").startswith("ok")

@@ -12,7 +12,7 @@
 #include "hal.h"
 
 #ifdef RAMP_TRAPEZOID_ONLY
-#define RAMP_SHAPES 1   /* the interpolation, Z axis and panel build options (README.md): no room for the exponential */
+#define RAMP_SHAPES 1   /* the panel image (config.h): no room for the exponential */
 #else
 #define RAMP_SHAPES 2
 #endif
