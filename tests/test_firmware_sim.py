@@ -24,7 +24,7 @@ import sys
 import pytest
 
 import vcd_trace
-from firmware_build import FIRMWARE, host_library, require_s51
+from firmware_build import FIRMWARE, host_library, mcu_image, require_s51
 from plotter_bridge.firmware_core import FirmwareCore
 
 sys.path.insert(0, str(FIRMWARE / "tools"))
@@ -162,3 +162,34 @@ def test_stack_stays_within_its_reserve(run):
     used = run["max_sp"] - run["stack_start"] + 1
     print(f"\ndeepest stack use: {used} of the 40 bytes kept")
     assert used <= 40, used
+
+
+@pytest.mark.parametrize("options", [{}, {"PANEL": "1"}], ids=["serial", "panel"])
+def test_position_copy_takes_a_step_between_its_reads(options):
+    """stepper_snapshot copies X and Y for the status report and the LCD
+    without masking the step interrupt, and copies again if a step came in
+    between.  Stopped in s51 just after it has copied X, X is changed as a
+    step would change it: the copy it returns must be the new X (SDCC once
+    compiled the check as comparing pos_x with itself, and the stale X went
+    out)."""
+    require_s51()
+    with s51sim.Sim(mcu_image(**options)) as sim:
+        sim.go()
+        sim.read_until(rb"ready[^\n]*\n")
+        sim.stop()
+        pos_x, copy = sim.sym["_pos_x"], sim.sym["_pos_copy"]
+        sim.write(b"?")
+        sim.run_to(sim.sym["_stepper_snapshot"])
+        sim.set_iram(copy, b"\xaa" * 8)
+        for _ in range(100):
+            sim.cmd("step")
+            if sim.iram(copy, 4) == sim.iram(pos_x, 4):
+                break
+        else:
+            raise AssertionError("stepper_snapshot never copied X")
+        sim.set_iram(pos_x, (1).to_bytes(4, "little"))
+        sim.run_to(sim.sym.instructions("stepper", "_stepper_snapshot", "ret")[-1])
+        assert sim.iram(copy, 8) == (1).to_bytes(4, "little") + bytes(4)
+        sim.go()
+        status = STATUS.search(sim.read_until(rb"<[^>]*>[^\n]*\n").decode())
+        assert status and status.group(2, 3) == ("1", "0")

@@ -193,12 +193,25 @@ void stepper_init(void)
 
 IDATA int32_t pos_copy[2];
 
+/* 1 if the four bytes at live differ from those at copy.  Byte by byte
+ * through pointers: written as int32_t comparisons, SDCC takes the copy
+ * for the pos_x it was just read from and compares pos_x with itself. */
+static uint8_t moved(IDATA uint8_t *copy, volatile FAST uint8_t *live)
+{
+    uint8_t k = 4;
+    do {
+        if (*copy++ != *live++) return 1;
+    } while (--k);
+    return 0;
+}
+
 void stepper_snapshot(void)
 {
     do {
         pos_copy[0] = POS_READ(pos_x);
         pos_copy[1] = POS_READ(pos_y);
-    } while (pos_copy[0] != POS_READ(pos_x) || pos_copy[1] != POS_READ(pos_y));
+    } while (moved((IDATA uint8_t *)&pos_copy[0], (volatile FAST uint8_t *)&pos_x) ||
+             moved((IDATA uint8_t *)&pos_copy[1], (volatile FAST uint8_t *)&pos_y));
 }
 
 void stepper_zero(void)
