@@ -44,7 +44,6 @@
 #define RAMP_TRAPEZOID_ONLY 1
 #define RT_STAR     'a'             /* real-time byte between lines: draw the star (seed 000, 4.3) */
 #endif
-#define HOST_LINK 1                 /* every image: sequence numbers, checksums, resends (PROTOCOL.md) */
 
 /* The host link's two sequence counters (planner.h, protocol.c) sit where
  * the image has room: internal RAM is full in the panel image, XRAM in the

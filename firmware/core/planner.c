@@ -490,7 +490,6 @@ uint8_t planner_pen(uint8_t down)
     return plan_wait();
 }
 
-#ifdef HOST_LINK
 uint8_t planner_dwell(uint16_t ms)
 {
     if (ms == 0) {
@@ -501,4 +500,3 @@ uint8_t planner_dwell(uint16_t ms)
     plan.steps = ms;
     return plan_wait();
 }
-#endif

@@ -24,7 +24,6 @@ uint8_t alarm_code;
 
 static IDATA char line[LINE_MAX + 1];
 static FAST uint8_t line_len;
-#ifdef HOST_LINK
 /* Fletcher sums 256 * s2 + s1 (put_eol): of the line's bytes before its '*',
  * and of the reply line so far. */
 static XDATA uint16_t line_sum, tx_sum;
@@ -32,7 +31,6 @@ static FAST uint8_t line_star;    /* index of '*' + 1, 0 if none */
 static FLAG resend_asked;         /* an rs is outstanding: drop later lines quietly */
 static FLAG machine;              /* the line being executed is in machine form */
 static SEQ_MEM uint16_t expected_seq;  /* next sequence number to execute */
-#endif
 static FLAG line_long;            /* the line overflowed LINE_MAX */
 
 static IDATA char *FAST cur;      /* parse cursor into line[] */
@@ -50,7 +48,6 @@ static FLAG out_lcd;              /* out() writes to the LCD (protocol_lcd) */
 static FAST uint8_t lcd_col;
 #endif
 
-#ifdef HOST_LINK
 /* One byte into a Fletcher sum: 8-bit ones' complement additions (an
  * end-around carry), i.e. modulo 255, so that bit 7 errors cannot cancel. */
 static void fletcher(XDATA uint16_t *sum, uint8_t c)
@@ -63,7 +60,6 @@ static void fletcher(XDATA uint16_t *sum, uint8_t c)
     if (s2 < s1) s2++;
     *sum = (uint16_t)((uint16_t)s2 << 8 | s1);
 }
-#endif
 
 /* Every byte of a reply goes through here, summed for the line's checksum. */
 
@@ -77,9 +73,7 @@ static void out(uint8_t c)
     }
 #endif
     hal_putc(c);
-#ifdef HOST_LINK
     fletcher(&tx_sum, c);
-#endif
 }
 
 static void put_str(const ROM char *s)
@@ -98,12 +92,10 @@ static void put_u16(uint16_t v);
  * no reply that fails it. */
 static void put_eol(void)
 {
-#ifdef HOST_LINK
     out(' ');
     hal_putc('*');
     put_u16(tx_sum);
     tx_sum = 0;
-#endif
     hal_putc('\r');
     hal_putc('\n');
 }
@@ -169,20 +161,16 @@ static void put_free(void)
 static void line_clear(void)
 {
     line_len = 0;
-#ifdef HOST_LINK
     line_sum = 0;
     line_star = 0;
-#endif
     line_long = 0;
 }
 
 void protocol_init(void)
 {
     line_clear();
-#ifdef HOST_LINK
     expected_seq = 0;
     resend_asked = 0;
-#endif
     alarm_code = 0;
     put_str(FW_NAME " " FW_VERSION FW_EDITION " ready");
     put_eol();
@@ -237,9 +225,7 @@ static void report_status(void)
     stepper_snapshot();
     state = 21;
     if (st_running) state = 15;
-#ifdef HOST_LINK
     if (HOLDING) state = 8;
-#endif
     if (alarm_code) state = 0;
     put_str(states + state);
     put_position();
@@ -251,21 +237,17 @@ static void report_status(void)
     put_num();
 #endif
     put_free();
-#ifdef HOST_LINK
     put_tag('N');
     put_u16(expected_seq);
     put_tag('S');
     put_u16(st_seg.seq);
-#endif
     put_tag('P');
 #if BIT_PEN != 0x10
 #error "the status report takes the pen from bit 4"
 #endif
     put_u8((uint8_t)(st_port & BIT_PEN) >> 4);
-#ifdef HOST_LINK
     put_tag('U');
     put_u16(st_underruns);
-#endif
     put_tag('A');
     put_u8(alarm_code);
     out('>');
@@ -335,13 +317,11 @@ static uint8_t parse_num(IDATA uint16_t *mag)
     return sign;
 }
 
-#ifdef HOST_LINK
 /* An unsigned number 0..65535 at the cursor, into arg_mag[0]. */
 static uint8_t parse_u16(void)
 {
     return parse_num(&arg_mag[0]) == 1;
 }
-#endif
 
 /* Parse the arguments after the command letter, up to the end. */
 static uint8_t parse_args(void)
@@ -367,7 +347,6 @@ static uint8_t parse_args(void)
     return E_OK;
 }
 
-#ifdef HOST_LINK
 /* $0 acceleration divisor, $1 ramp shape, $2 default feed, $3 pen delay. */
 static RAMP_ROM uint16_t setting_range[SETTINGS][2] = {   /* least, greatest */
     {1, 50}, {0, RAMP_SHAPES - 1}, {15, 65535u}, {1, 5000},
@@ -406,7 +385,6 @@ static uint8_t cmd_setting(void)
     setting[key] = arg_mag[1];
     return E_OK;
 }
-#endif
 
 /* The commands' letters, and for each the fewest arguments, with MOTION
  * for a motion command: its coordinates (-32767..32767; the other arguments
@@ -419,13 +397,8 @@ static uint8_t cmd_setting(void)
 #define Z_COMMAND
 #define Z_ARGS
 #endif
-#ifdef HOST_LINK
 #define D_COMMAND "D"
 #define D_ARGS 1,
-#else
-#define D_COMMAND
-#define D_ARGS
-#endif
 static const ROM char command_letters[] = "LCA" Z_COMMAND "P" D_COMMAND "H";
 static const ROM uint8_t command_args[] = {
     MOTION | 2, MOTION | 4, MOTION | 4, Z_ARGS 1, D_ARGS 0
@@ -442,11 +415,9 @@ static uint8_t run_command(void)
         return E_OK;                      /* empty line */
     }
     cmd = *cur++;
-#ifdef HOST_LINK
     if (cmd == '$') {
         return cmd_setting();
     }
-#endif
     k = parse_args();
     if (k) return k;
     for (k = 0; ; k++) {
@@ -492,9 +463,7 @@ static uint8_t run_command(void)
 #endif
         return planner_arc(cmd == 'C');
     }
-#ifdef HOST_LINK
     if (cmd == 'D') return planner_dwell(arg_mag[0]);
-#endif
     return planner_pen((uint8_t)arg_mag[0]);
 }
 
@@ -505,24 +474,18 @@ static uint8_t run_command(void)
 static void reply(uint8_t err)
 {
     const ROM char *word = "ok";
-#ifdef HOST_LINK
     SEQ_MEM uint16_t *seq = &plan_seq;
-#endif
     if (err) word = "err";
-#ifdef HOST_LINK
     if (err & RESEND) {
         word = "rs";
         seq = &expected_seq;
         resend_asked = 1;
     }
-#endif
     put_str(word);
-#ifdef HOST_LINK
     if (machine) {
         put_tag('N');
         put_u16(*seq);
     }
-#endif
     err &= (uint8_t)~RESEND;
     if (err) {
         put_tag('E');
@@ -533,7 +496,6 @@ static void reply(uint8_t err)
     put_eol();
 }
 
-#ifdef HOST_LINK
 /* N<seq> <command> *<checksum>: 1 if the checksum matches and the sequence
  * number parsed, into arg_mag[0]; the command is left in cur..end. */
 static uint8_t sequence_parsed(void)
@@ -546,32 +508,26 @@ static uint8_t sequence_parsed(void)
     while (*cur == ' ') cur++;
     return parse_u16();
 }
-#endif
 
 static void execute_line(void)
 {
     uint8_t err;
-#ifdef HOST_LINK
     uint16_t ahead;                       /* how far plan_seq is past expected_seq */
-#endif
 
     line[line_len] = 0;
     cur = line;
     end = line + line_len;
     skip_separators();
     err = E_TOOLONG;
-#ifdef HOST_LINK
     machine = 0;
     if (*cur == 'N' || line_star) {
         machine = 1;
         err = RESEND | E_TOOLONG;
     }
-#endif
     if (line_long) {
         reply(err);
         return;
     }
-#ifdef HOST_LINK
     if (machine) {
         if (!sequence_parsed()) {
             reply(RESEND | E_CHECKSUM);
@@ -589,12 +545,10 @@ static void execute_line(void)
         }
         resend_asked = 0;
     } else
-#endif
     {
         plan_seq = 0;
     }
     err = run_command();
-#ifdef HOST_LINK
     if (machine) {
         if (err == E_QUEUEFULL) {
             reply(RESEND | E_QUEUEFULL);    /* not executed: the host sends it again */
@@ -602,7 +556,6 @@ static void execute_line(void)
         }
         expected_seq++;
     }
-#endif
     reply(err);
 }
 
@@ -620,7 +573,6 @@ static void receive_byte(uint8_t c)
         return;
     }
     line[line_len++] = (char)c;
-#ifdef HOST_LINK
     if (!line_star) {
         if (c == '*') {
             line_star = line_len;         /* the '*' is at line_len - 1 */
@@ -628,7 +580,6 @@ static void receive_byte(uint8_t c)
             fletcher(&line_sum, c);
         }
     }
-#endif
 }
 
 void protocol_poll(void)
@@ -650,12 +601,10 @@ void protocol_poll(void)
         rt_limit = 0;
         protocol_alarm(ALARM_LIMIT);
     }
-#ifdef HOST_LINK
     if (rt_resume) {
         rt_resume = 0;
         stepper_resume();
     }
-#endif
     if (rt_status) {
         rt_status = 0;
         report_status();

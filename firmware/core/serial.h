@@ -25,11 +25,7 @@ extern volatile FLAG rx_between_lines;      /* no line has started since the las
 /* Real-time requests for the main loop. */
 extern volatile FLAG rt_status, rt_resume, rt_estop, rt_reset;
 extern volatile FLAG rt_limit;              /* the step interrupt met a closed limit switch */
-#ifdef HOST_LINK
 #define RT_HOLD_MATCH(c) ((c) == RT_HOLD || (c) == RT_RESUME)
-#else
-#define RT_HOLD_MATCH(c) 0          /* no feed hold in the panel image (config.h) */
-#endif
 #ifdef PANEL
 extern volatile FLAG rt_star;
 #define RT_STAR_MATCH(c) ((c) == RT_STAR && rx_between_lines)

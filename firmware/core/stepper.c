@@ -252,7 +252,6 @@ void stepper_start(void)
     HAL_TIMER_START(64);
 }
 
-#ifdef HOST_LINK
 void stepper_resume(void)
 {
     st_hold = 0;
@@ -261,7 +260,6 @@ void stepper_resume(void)
         HAL_TIMER_START(64);
     }
 }
-#endif
 
 /* An arc enters quadrant st_seg.quadrant: its moves and its end. */
 INLINE void arc_enter_quadrant(void)

@@ -29,11 +29,7 @@ extern FAST segment_t st_seg;
 extern volatile FLAG st_running;              /* timer running or paused mid-queue */
 extern volatile FLAG st_paused;               /* stopped by a feed hold */
 extern volatile FLAG st_hold;                 /* feed hold requested */
-#ifdef HOST_LINK
 #define HOLDING st_hold
-#else
-#define HOLDING 0                             /* no feed hold in the panel image (config.h) */
-#endif
 extern FAST volatile uint8_t st_port;         /* last value written to the port, without step bits */
 extern FAST volatile uint8_t st_level;        /* current ramp level */
 extern IDATA volatile uint16_t st_underruns;  /* queue ran dry while motion should continue */
