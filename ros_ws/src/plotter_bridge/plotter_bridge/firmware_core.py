@@ -50,6 +50,7 @@ class FirmwareCore:
 
     def __init__(self, library: Path | None = None) -> None:
         src = Path(library) if library else find_library()
+        self.library = src.resolve()
         self._tmpdir = tempfile.TemporaryDirectory(prefix="plotter-core-")
         private = Path(self._tmpdir.name) / LIB_NAME
         shutil.copyfile(src, private)

@@ -62,7 +62,8 @@ class MockBoardNode(Node):
             self.get_logger().info(f"faults: {config.faults}")
         where = f" (link {config.link})" if config.link else ""
         print(f"mock board on {self.board.port_path}{where}", flush=True)
-        self.get_logger().info(f"mock board on {self.board.port_path}{where}")
+        self.get_logger().info(f"mock board on {self.board.port_path}{where}, "
+                               f"firmware core {self.board.core.library}")
 
     def _srv_unplug(self, request, response):
         seconds = float(self.get_parameter("unplug_for").value)
