@@ -8,7 +8,7 @@ import math
 import random
 import threading
 import time
-
+from contextlib import contextmanager
 from pathlib import Path
 
 import pytest
@@ -21,14 +21,16 @@ STEPS_PER_MM = 80.0
 REPO = Path(__file__).resolve().parent.parent
 
 
-@pytest.fixture(scope="module")
-def graph(tmp_path_factory):
+@contextmanager
+def watched_graph(workdir):
+    """The graph, with a probe that records /plotter/position and
+    /plotter/state and can publish shape goals; the nodes must stop cleanly."""
     from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
     from geometry_msgs.msg import PointStamped
     from plotter_interfaces.msg import BoardState, ShapeGoal
 
     domain = random.SystemRandom().randint(110, 200)
-    g = PlotterGraph(domain, tmp_path_factory.mktemp("graph"))
+    g = PlotterGraph(domain, workdir)
     probe = Probe(domain)
     g.probe = probe
     g.positions, g.states = [], []
@@ -58,6 +60,12 @@ def graph(tmp_path_factory):
         probe.close()
         codes = g.close()
     assert all(c == 0 for c in codes), f"nodes did not exit cleanly on Ctrl-C: {codes}\n"
+
+
+@pytest.fixture(scope="module")
+def graph(tmp_path_factory):
+    with watched_graph(tmp_path_factory.mktemp("graph")) as g:
+        yield g
 
 
 def wait_idle_after(g, t0, timeout=120):

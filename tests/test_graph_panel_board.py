@@ -5,52 +5,24 @@ $PLOTTER_CORE_LIB), and the graph is otherwise the one users run:
 serial_bridge streams machine lines to it, and a star and a circle
 published on /plotter/shape come out on the step trace.
 """
-import random
-import threading
 import time
 
 import pytest
 
 from firmware_build import host_library
-from ros_graph import PlotterGraph, Probe, read_trace, wait_until
-from test_graph_end_to_end import STEPS_PER_MM, check_trace_follows, reference_path, wait_idle_after
+from ros_graph import read_trace, wait_until
+from test_graph_end_to_end import (STEPS_PER_MM, check_trace_follows, reference_path, wait_idle_after,
+                                   watched_graph)
 
 pytestmark = pytest.mark.ros
 
 
 @pytest.fixture(scope="module")
 def graph(tmp_path_factory):
-    from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
-    from plotter_interfaces.msg import BoardState, ShapeGoal
-
-    env = pytest.MonkeyPatch()
-    env.setenv("PLOTTER_CORE_LIB", str(host_library(PANEL="1")))
-    domain = random.SystemRandom().randint(201, 230)
-    g = PlotterGraph(domain, tmp_path_factory.mktemp("panel_graph"))
-    probe = Probe(domain)
-    g.probe = probe
-    g.states = []
-    g.lock = threading.Lock()
-
-    def on_state(m):
-        with g.lock:
-            g.states.append((time.monotonic(), m.state, m.queue_free, m.x_steps, m.y_steps))
-
-    latched = QoSProfile(depth=1, reliability=ReliabilityPolicy.RELIABLE,
-                         durability=DurabilityPolicy.TRANSIENT_LOCAL)
-    probe.node.create_subscription(BoardState, "state", on_state, latched)
-    g.shape_pub = probe.node.create_publisher(ShapeGoal, "shape", 10)
-    try:
-        wait_until(lambda: any(s[1] == BoardState.IDLE for s in g.states), 60, "the bridge's first IDLE state")
-        yield g
-    except BaseException:
-        print(g.outputs())
-        raise
-    finally:
-        probe.close()
-        codes = g.close()
-        env.undo()
-    assert all(c == 0 for c in codes), f"nodes did not exit cleanly on Ctrl-C: {codes}\n"
+    with pytest.MonkeyPatch.context() as env:
+        env.setenv("PLOTTER_CORE_LIB", str(host_library(PANEL="1")))
+        with watched_graph(tmp_path_factory.mktemp("panel_graph")) as g:
+            yield g
 
 
 def test_the_mock_board_runs_the_panel_core(graph):
