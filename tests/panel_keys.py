@@ -12,7 +12,7 @@ JOG = 800                       # steps per jog press, core/panel.c JOG_STEPS
 K_RESET, K_XP, K_CONE, K_CIRCLE = 0, 1, 2, 3
 K_DIAG, K_XN, K_DIAMOND, K_STAR = 4, 5, 6, 7
 K_FASTER, K_YP, K_NO_FUNCTION, K_CAR = 8, 9, 10, 11
-K_SLOWER, K_YN, K_CAR_REV = 12, 13, 15
+K_SLOWER, K_YN, K_PAUSE, K_CAR_REV = 12, 13, 14, 15
 
 
 def digit_key(d: int) -> int:

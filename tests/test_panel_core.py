@@ -15,7 +15,7 @@ import pytest
 
 from firmware_build import FIRMWARE, host_library
 from panel_keys import (JOG, K_CAR, K_CAR_REV, K_CIRCLE, K_CONE, K_DIAG, K_DIAMOND, K_FASTER,
-                        K_NO_FUNCTION, K_RESET, K_SLOWER, K_STAR, K_XN, K_XP, K_YN, K_YP,
+                        K_NO_FUNCTION, K_PAUSE, K_RESET, K_SLOWER, K_STAR, K_XN, K_XP, K_YN, K_YP,
                         assert_on_figure, digit_key, figure_segments)
 from vcd_trace import SEGMENTS
 from plotter_bridge.firmware_core import FirmwareCore
@@ -127,7 +127,7 @@ def test_a_key_held_acts_once(panel):
 
 
 def test_keys_without_function_do_nothing(panel):
-    for key in (K_NO_FUNCTION, 14):
+    for key in (K_NO_FUNCTION, K_PAUSE):          # pausing nothing does nothing
         panel.press(key)
     panel.run(500)
     assert panel.position == (0, 0) and panel.lcd()[1] == "Ready"
@@ -186,6 +186,45 @@ def test_reset_key_clears_position_when_still_and_stops_motion(panel):
     assert len(panel.trace) - moved < 50          # stopped at once
     assert b"[reset]" in panel.core.transmitted()
     assert panel.lcd()[1] == "Ready"
+
+
+def test_pause_key_stops_on_the_path_and_resumes_where_it_stopped(panel):
+    panel.press(K_XP)
+    panel.run(2000)
+    start = panel.position
+    panel.trace.clear()
+    panel.press(K_STAR)
+    panel.tick(400)
+    panel.press(K_PAUSE)
+    panel.run(300)                                # braked along the path by now
+    held = len(panel.trace)
+    assert panel.lcd()[1] == "Paused"
+    panel.run(2000)
+    assert len(panel.trace) == held and held > 0
+    panel.core.receive(b"?")
+    panel.tick(2)
+    assert b"<Hold " in panel.core.transmitted()
+    panel.press(K_PAUSE)
+    panel.run(40000)
+    assert_on_figure(panel.trace, gen_figures.all_figures()["FIG_STAR"], start)
+    assert panel.lcd()[1] == "Ready"
+
+
+def test_reset_key_while_paused_ends_the_figure(panel):
+    panel.press(K_STAR)
+    panel.tick(400)
+    panel.press(K_PAUSE)
+    panel.run(300)
+    panel.press(K_RESET)
+    panel.run(2000)
+    moved = len(panel.trace)
+    panel.run(2000)
+    assert len(panel.trace) == moved
+    assert b"[reset]" in panel.core.transmitted()
+    assert panel.lcd()[1] == "Ready"
+    panel.press(K_XP)                             # not held any more: a jog runs
+    panel.run(2000)
+    assert len(panel.trace) == moved + JOG
 
 
 @pytest.mark.parametrize("key,figure", [(K_DIAMOND, "FIG_DIAMOND"), (K_STAR, "FIG_STAR"), (K_CONE, "FIG_CONE"),

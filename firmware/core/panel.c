@@ -2,7 +2,7 @@
  *
  * A key acts once per press, when it has read the same for DEBOUNCE ticks.
  * Motion keys act only while the machine stands still (one press, one move);
- * the reset key acts always, except while a number is typed.  Numbers are
+ * the reset and pause keys act always, except while a number is typed.  Numbers are
  * typed on the keys of seed 000 figure 3.3 (digit = column * 4 + row, so the
  * reset key is the 0): they shift in from the right of the 7-segment
  * display, and after four digits, or at any other key, the number is
@@ -33,11 +33,12 @@
 #define A_CIRCLE 2
 #define A_FASTER 3
 #define A_SLOWER 4
+#define A_PAUSE  5
 static const ROM uint8_t key_action[16] = {
     A_RESET,              A_JOG | MV_XP, A_FIGURE | FIG_CONE,    A_CIRCLE,
     A_JOG | MV_XP | MV_YP, A_JOG | MV_XN, A_FIGURE | FIG_DIAMOND, A_FIGURE | FIG_STAR,
     A_FASTER,             A_JOG | MV_YP, A_NONE,                 A_FIGURE | FIG_CAR,
-    A_SLOWER,             A_JOG | MV_YN, A_NONE,                 A_FIGURE | FIG_CAR_REV,
+    A_SLOWER,             A_JOG | MV_YN, A_PAUSE,                A_FIGURE | FIG_CAR_REV,
 };
 /* The prompts, one string after another; panel_prompt is the offset of
  * its own.  SDCC would store a string again for each sizeof of it, so the
@@ -54,10 +55,11 @@ static const ROM uint8_t key_action[16] = {
 #define T_JOG      "Jog"
 #define T_CIRCLE   "Circle"
 #define T_RANGE    "Out of range"
+#define T_PAUSED   "Paused"
 static const ROM char prompts[] =
     T_DIAMOND "\0" T_STAR "\0" T_CONE "\0" T_CAR "\0" T_CAR_REV "\0"
     T_CENTRE_X "\0" T_CENTRE_Y "\0" T_RADIUS "\0"
-    T_READY "\0" T_JOG "\0" T_CIRCLE "\0" T_RANGE;
+    T_READY "\0" T_JOG "\0" T_CIRCLE "\0" T_RANGE "\0" T_PAUSED;
 #define P_DIAMOND  0
 #define P_STAR     8
 #define P_CONE     13
@@ -70,6 +72,7 @@ static const ROM char prompts[] =
 #define P_JOG      69
 #define P_CIRCLE   73
 #define P_RANGE    80
+#define P_PAUSED   93
 #define P_FIELD    10       /* the three numbers' prompts: P_CENTRE_X + entry_field * P_FIELD */
 #ifndef __SDCC
 #define PROMPT_AFTER(p, t, q) typedef char prompt_##q##_offset[(p) + sizeof t == (q) ? 1 : -1]
@@ -84,6 +87,7 @@ PROMPT_AFTER(P_RADIUS, T_RADIUS, P_READY);
 PROMPT_AFTER(P_READY, T_READY, P_JOG);
 PROMPT_AFTER(P_JOG, T_JOG, P_CIRCLE);
 PROMPT_AFTER(P_CIRCLE, T_CIRCLE, P_RANGE);
+PROMPT_AFTER(P_RANGE, T_RANGE, P_PAUSED);
 typedef char prompts_of_the_fields_are_evenly_spaced[
     P_CENTRE_Y - P_CENTRE_X == P_FIELD && P_RADIUS - P_CENTRE_Y == P_FIELD ? 1 : -1];
 #endif
@@ -233,6 +237,14 @@ static void key_pressed(uint8_t k)
         RT_STOP(rt_reset);                /* moving: stop at once, as Ctrl-X does */
         return;
     }
+    if (a == A_PAUSE) {
+        if (HOLDING) {
+            stepper_resume();             /* paused: on from where it stopped */
+        } else if (!motion_idle() && !alarm_code) {
+            st_hold = 1;                  /* moving: brake along the path and stop, as `!` does */
+        }
+        return;
+    }
     if (!motion_idle()) return;
     if (a & A_JOG) {
         p = plan_arg;                     /* X, then Y: MV_XP, MV_XN, then MV_YP, MV_YN */
@@ -295,6 +307,7 @@ void panel_tick(void)
 const ROM char *panel_text(void)
 {
     if (alarm_code) return alarm_text();
+    if (HOLDING) return &prompts[P_PAUSED];
     return &prompts[panel_prompt];
 }
 

@@ -1,8 +1,8 @@
 /* panel.h - the board's own front panel (seed 000, chapters 3-4): the 4x4
  * keypad and its functions, numeric entry on the 7-segment display, the
  * prompts on the LCD, and the built-in figures the keys start.  Only in the
- * default image (PANEL, config.h): the other build options drive machines
- * without this panel. */
+ * panel image (PANEL, config.h): the other images drive machines without
+ * this panel. */
 #ifndef PANEL_H
 #define PANEL_H
 
@@ -26,6 +26,7 @@
 #define K_CAR     11
 #define K_SLOWER  12
 #define K_YN      13
+#define K_PAUSE   14    /* pause / resume (a feed hold); the seed has it on the reset key */
 #define K_CAR_REV 15
 #define KEYS      16    /* HAL_KEY_SCAN: no key (or several) is K_NONE or another code above */
 #define K_NONE    0xFF
