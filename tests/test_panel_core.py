@@ -320,11 +320,11 @@ def test_limit_switch_stops_only_the_move_towards_it(panel):
     assert panel.position == (2 * JOG, JOG)
 
 
-def test_the_panel_image_speaks_the_host_link(panel):
-    """The serial controller's whole protocol, checked with the host's own
-    encoder and parser: checksummed banner, replies and status, machine
-    lines and resends, `$` settings (the trapezoid only), and E10 for motion
-    while a figure is drawn."""
+def test_the_panel_and_the_host_link_share_the_board(panel):
+    """Beside the panel, the serial controller's whole protocol, checked with
+    the host's own encoder and parser: checksummed banner, replies and
+    status, machine lines and resends, `$` settings (both ramp shapes), and
+    E10 for motion while a figure is drawn."""
     def send(data: bytes):
         panel.core.receive(data)
         panel.tick(3)
@@ -338,13 +338,14 @@ def test_the_panel_image_speaks_the_host_link(panel):
     assert send(machine_line(1, "$0=2")) == Err(1, 10, ERROR_TEXT[10])     # moving
     panel.run(2000)
     assert panel.position == (100, 0)
-    assert send(machine_line(2, "$1=1")) == Err(2, 11, ERROR_TEXT[11])     # no exponential ramp
-    assert send(machine_line(3, "$0=2")) == Ok(3, 6)
+    assert send(machine_line(2, "$1=2")) == Err(2, 11, ERROR_TEXT[11])     # two shapes: 0 and 1
+    assert send(machine_line(3, "$1=1")) == Ok(3, 6)
+    assert send(machine_line(4, "$0=2")) == Ok(4, 6)
     status = send(RT_STATUS)
-    assert isinstance(status, Status) and (status.state, status.x, status.next_seq) == ("Idle", 100, 4)
-    panel.press(K_STAR)
+    assert isinstance(status, Status) and (status.state, status.x, status.next_seq) == ("Idle", 100, 5)
+    panel.press(K_STAR)                           # drawn with the exponential ramp
     panel.tick(300)
-    assert send(machine_line(4, "L 100 0")) == Err(4, 10, ERROR_TEXT[10])
+    assert send(machine_line(5, "L 100 0")) == Err(5, 10, ERROR_TEXT[10])
     panel.core.receive(RT_RESET)                  # ends the figure too
     panel.tick(5)
-    assert send(machine_line(5, "L 0 10")) == Ok(5, 5)
+    assert send(machine_line(6, "L 0 10")) == Ok(6, 5)

@@ -37,11 +37,9 @@
 #endif
 
 /* The front panel (build option PANEL, README.md: keypad, LCD, 7-segment
- * display, built-in figures, e-stop and limit inputs, core/panel.h).  Its
- * image speaks the whole host link as well; only the exponential ramp
- * ($1=1) is left out to make room. */
+ * display, built-in figures, e-stop and limit inputs, core/panel.h), beside
+ * the whole host link. */
 #ifdef PANEL
-#define RAMP_TRAPEZOID_ONLY 1
 #define RT_STAR     'a'             /* real-time byte between lines: draw the star (seed 000, 4.3) */
 #endif
 

@@ -77,41 +77,15 @@ static uint8_t commit(void)
     return E_OK;
 }
 
-/* The highest ramp level whose rate does not exceed *rate.  Also leaves in
- * plan.exit_brake the hold steps (times the multiplier) of the levels up to
- * it, which the step interrupt takes off the braking distance: the segment
- * ends as it reaches that level.  Level 0 takes off nothing, so a stop
- * runs level 0's hold at the start rate, as a start does. */
-static uint8_t level_for_rate(IDATA uint16_t *ratep)
-{
-    uint16_t rate = *ratep;
-    RAMP_ROM uint8_t *holds = &ramp_hold[RAMP_ROW(SETTING(SET_SHAPE))];
-    uint8_t k = 0;
-    uint16_t sum = (uint16_t)((uint8_t)holds[0] * (uint8_t)SETTING(SET_ACCEL));
-    /* rate is at most the top level's (plan_motion): with the trapezoid
-     * alone, the rate a level above the top (computed, not tabled) ends the
-     * loop there */
-    while (
-#if RAMP_SHAPES > 1
-           k < RAMP_LEVELS - 1 &&
-#endif
-           RAMP_RATE(SETTING(SET_SHAPE), k + 1) <= rate) {
-        k++;
-        sum += (uint16_t)((uint8_t)holds[k] * (uint8_t)SETTING(SET_ACCEL));
-    }
-    plan.exit_brake = k ? sum : 0;
-    return k;
-}
-
-/* plan.cruise_period: the step period at feed f, CYCLES_PER_S / f rounded,
- * for f in FEED_MIN..32767.  A long division by shift and subtract, the
+/* The step period at rate f, CYCLES_PER_S / f machine cycles rounded, in
+ * the timer's form (HAL_PERIOD), for f in FEED_MIN..32767.  A long division by shift and subtract, the
  * quotient shifting in where the dividend shifts out: it needs no library
  * division, and with CYCLES_PER_S < FEED_MIN * 2^16 the quotient fits 16
  * bits. */
-#if CYCLES_PER_S >= FEED_MIN * 65536UL || RAMP_R0 + (RAMP_LEVELS - 1) * RAMP_DR > 32767
-#error plan_period: the quotient or the feed outgrows 16 bits
+#if CYCLES_PER_S >= FEED_MIN * 65536UL || RAMP_TOP > 32767
+#error period_of: the quotient or the feed outgrows 16 bits
 #endif
-static void plan_period(uint16_t f)
+static uint16_t period_of(uint16_t f)
 {
     uint16_t hi = (uint16_t)(CYCLES_PER_S >> 16);
     uint16_t lo = (uint16_t)CYCLES_PER_S + (f >> 1);
@@ -125,21 +99,51 @@ static void plan_period(uint16_t f)
             lo++;
         }
     } while (--i);
-    plan.cruise_period = HAL_PERIOD(lo);
+    return HAL_PERIOD(lo);
 }
 
-/* Ramp fields shared by lines and arcs, then into the queue. */
+/* The index (RAMP_INDEX) of the highest ramp level of the shape $1 whose
+ * step period is at least p (in the timer's form, HAL_PERIOD): the fastest
+ * level no faster than the rate of that period, found by the periods the
+ * step interrupt runs, so no table of rates is needed.  Also leaves in plan.exit_brake the hold steps (times
+ * the multiplier) of the levels up to it, which the step interrupt takes
+ * off the braking distance: the segment ends as it reaches that level.
+ * Level 0 takes off nothing, so a stop runs level 0's hold at the start
+ * rate, as a start does.  A leaf, so that SDCC overlays its locals. */
+static uint8_t level_for_period(uint16_t p)
+{
+    uint8_t i = RAMP_INDEX(0, SETTING(SET_SHAPE));
+    uint16_t sum = 0;
+    for (;;) {
+        sum += (uint16_t)((uint8_t)ramp_hold[i] * (uint8_t)SETTING(SET_ACCEL));   /* MUL AB */
+        if (i >= RAMP_INDEX(RAMP_LEVELS - 1, 0) ||
+            !HAL_PERIOD_NOT_SHORTER(((uint16_t)(ramp_period_hi + RAMP_STEP)[i] << 8) | (ramp_period_lo + RAMP_STEP)[i], p)) {
+            break;
+        }
+        i += RAMP_STEP;
+    }
+    plan.exit_brake = RAMP_ABOVE_START(i) ? sum : 0;
+    return i;
+}
+
+/* Rate v brought within FEED_MIN..hi. */
+static uint16_t rate_within(uint16_t v, uint16_t hi)
+{
+    if (v > hi) v = hi;
+    if (v < FEED_MIN) v = FEED_MIN;
+    return v;
+}
+
+/* Ramp fields shared by lines and arcs, then into the queue.  The exit is
+ * no faster than the feed; a stop (0) counts as FEED_MIN, whose period is
+ * far longer than level 1's: level 0. */
 static uint8_t plan_motion(void)
 {
-    uint16_t f = plan_arg[PLAN_FEED], top = RAMP_TOP(SETTING(SET_SHAPE));
+    uint16_t f = plan_arg[PLAN_FEED];
     if (f == 0) f = SETTING(SET_FEED);
-    if (f < FEED_MIN) f = FEED_MIN;
-    if (f > top) f = top;
-    plan_arg[PLAN_FEED] = f;
-    if (plan_arg[PLAN_EXIT] > f) plan_arg[PLAN_EXIT] = f;
-    plan_period(f);
-    plan.cruise = level_for_rate(&plan_arg[PLAN_FEED]);
-    plan.exit = level_for_rate(&plan_arg[PLAN_EXIT]);
+    f = rate_within(f, RAMP_TOP);
+    plan.cruise = level_for_period(plan.cruise_period = period_of(f));
+    plan.exit = level_for_period(period_of(rate_within(plan_arg[PLAN_EXIT], f)));  /* its exit_brake stays */
     return commit();
 }
 
@@ -474,7 +478,7 @@ uint8_t planner_arc(uint8_t clockwise)
 /* Pen and dwell: wait plan.steps milliseconds. */
 static uint8_t plan_wait(void)
 {
-    plan.cruise = 0;
+    plan.cruise = 0;                    /* unused: a wait has no ramp */
     plan.exit = 0;
     plan.cruise_period = HAL_PERIOD(DWELL_PERIOD);
     plan.exit_brake = 0;

@@ -3,19 +3,16 @@
  * A speed is a level 0..RAMP_LEVELS-1.  Level k is held for
  * ramp_hold[shape][k] * accel_multiplier steps before the next level, so the
  * steps needed to brake from level k down to level e are a sum of holds:
- * no division anywhere.  The step interrupt reads the one-dimensional tables
- * with index shape * RAMP_LEVELS + level: a single `movc` per byte. */
+ * no division anywhere.  The tables interleave the shapes, index
+ * 2 * level + shape (RAMP_INDEX): the step interrupt forms it by shifting
+ * the shape's bit in, and reads each byte with a single `movc`. */
 #ifndef RAMP_H
 #define RAMP_H
 
 #include "config.h"
 #include "hal.h"
 
-#ifdef RAMP_TRAPEZOID_ONLY
-#define RAMP_SHAPES 1   /* the panel image (config.h): no room for the exponential */
-#else
 #define RAMP_SHAPES 2
-#endif
 #define RAMP_LEVELS 64
 #define RAMP_TRAPEZOID   0
 #define RAMP_EXPONENTIAL 1
@@ -27,23 +24,19 @@ extern RAMP_ROM uint8_t  ramp_period_lo[RAMP_SHAPES * RAMP_LEVELS];
 extern RAMP_ROM uint8_t  ramp_period_hi[RAMP_SHAPES * RAMP_LEVELS];
 extern RAMP_ROM uint8_t  ramp_hold[RAMP_SHAPES * RAMP_LEVELS];   /* steps per level at multiplier 1 */
 
-/* The rate of each level, steps/s: the trapezoid's rises by RAMP_DR per
- * level from RAMP_R0 and needs no table; the exponential's is tabled. */
-#define RAMP_R0 250
-#define RAMP_DR 200
-#define RAMP_RATE_TRAP(level) ((uint16_t)(RAMP_R0 + (uint16_t)((uint8_t)RAMP_DR * (uint8_t)(level))))  /* MUL AB */
-/* Of a shape (the setting $1): the first index of its row in the tables,
- * the rate of a level, the top rate. */
-#if RAMP_SHAPES > 1
-extern RAMP_ROM uint16_t ramp_rate_exp[RAMP_LEVELS];
-#define RAMP_ROW(shape) ((shape) ? RAMP_LEVELS : 0)
-#define RAMP_RATE(shape, level) ((shape) ? ramp_rate_exp[level] : RAMP_RATE_TRAP(level))
-#define RAMP_TOP(shape) ((shape) ? ramp_rate_exp[RAMP_LEVELS - 1] : RAMP_RATE_TRAP(RAMP_LEVELS - 1))
-#else
-#define RAMP_ROW(shape) 0
-#define RAMP_RATE(shape, level) RAMP_RATE_TRAP(level)
-#define RAMP_TOP(shape) RAMP_RATE_TRAP(RAMP_LEVELS - 1)
-#endif
+/* The start and top rates of both shapes, steps/s: the top is the
+ * fastest feed a command may ask for.  The planner finds the level of any
+ * other rate by the periods, so no table of rates is kept. */
+#define RAMP_R0  250
+#define RAMP_TOP 12850
+
+/* A level is handled as its index: the step interrupt reads the tables
+ * with it as it is, one level up or down is RAMP_STEP, and the levels of
+ * one shape compare as their indexes do. */
+#define RAMP_INDEX(level, shape) ((uint8_t)((uint8_t)((uint8_t)(level) << 1) | (uint8_t)(shape)))
+#define RAMP_STEP 2
+#define RAMP_SHAPE_BIT 1
+#define RAMP_ABOVE_START(index) ((uint8_t)(index) >= RAMP_STEP)  /* above level 0 */
 
 #define RAMP_ACCEL_TRAP 100000    /* trapezoid acceleration at divisor 1, steps/s^2 */
 

@@ -76,13 +76,6 @@ static FAST uint8_t st_moves;         /* arc: the quadrant's two moves, both arc
 #else
 static FAST uint8_t st_moves;         /* arc: the quadrant's arc_moves entry */
 #endif
-#if RAMP_SHAPES > 1
-static FAST uint8_t st_lbase;         /* shape * RAMP_LEVELS: the ramp tables' row */
-#define LBASE_SET() (st_lbase = RAMP_ROW(SETTING(SET_SHAPE)))
-#else
-#define st_lbase 0                    /* one shape: its row is the tables */
-#define LBASE_SET()
-#endif
 static FAST uint16_t st_level_left;   /* steps left at the current level */
 static IDATA uint16_t st_below;       /* hold steps of all the levels below this one */
 static FAST uint16_t st_brake_at;     /* braking must have begun once steps left <= this */
@@ -164,7 +157,7 @@ static RAMP_ROM uint8_t phase_next[2 * PHASE_SPAN] = {
 #endif
 
 #define HOLD_STEPS(level) \
-    ((uint16_t)((uint8_t)ramp_hold[(uint8_t)(st_lbase + (level))] * (uint8_t)SETTING(SET_ACCEL)))  /* MUL AB */
+    ((uint16_t)((uint8_t)ramp_hold[(uint8_t)(level)] * (uint8_t)SETTING(SET_ACCEL)))  /* MUL AB */
 
 /* Steps to the braking point while cruising (st_seg.steps is not kept up
  * meanwhile), n >= 1, as n = 256 * st_cruise_hi + st_cruise_lo with
@@ -237,13 +230,13 @@ void stepper_abort(void)
 
 void stepper_start(void)
 {
-    LBASE_SET();
 #ifdef PANEL
     st_port &= (uint8_t)~(BIT_X_DIR | BIT_Y_DIR);   /* the limit check must not see the last move's directions */
 #endif
     stepper_abort();
+    st_level = RAMP_INDEX(0, SETTING(SET_SHAPE));   /* the shape's bit stays while it runs */
     st_below = 0;
-    st_level_left = HOLD_STEPS(0);
+    st_level_left = HOLD_STEPS(st_level);
     /* The first interrupt loads the first segment, which takes several
      * hundred cycles: let the second, which emits the first pulse, come
      * when it is done, so that the ramp starts on time. */
@@ -322,9 +315,9 @@ INLINE uint8_t load_segment(void)
             st_port = (st_port & ~BIT_PEN) | st_seg.dirs;
         }
         st_seg.kind = SEG_DWELL;
-        st_level = 0;
+        st_level &= RAMP_SHAPE_BIT;  /* level 0 */
         st_below = 0;
-        st_level_left = HOLD_STEPS(0);
+        st_level_left = HOLD_STEPS(st_level);
     } else {
 #if defined(INTERP_DDA)
         /* The capacity 2^n comes in the high nibble of dirs (planner.c). */
@@ -347,9 +340,9 @@ INLINE uint8_t load_segment(void)
     if (n == QUEUE_SLOTS) n = 0;
     q_tail = n;
     brake = st_seg.exit_brake;
-    if (st_seg.exit && n == q_head) {
+    if (RAMP_ABOVE_START(st_seg.exit) && n == q_head) {
         /* Nothing follows yet: plan to stop rather than run off the queue's end. */
-        st_seg.exit = 0;
+        st_seg.exit &= RAMP_SHAPE_BIT;
         brake = 0;                   /* as the planner's for level 0 */
         st_underruns++;
     }
@@ -474,7 +467,7 @@ STEPPER_ISR
         goto load;
     }
 run:
-    if (HOLDING && st_level == 0 && st_seg.kind != SEG_DWELL) {
+    if (HOLDING && !RAMP_ABOVE_START(st_level) && st_seg.kind != SEG_DWELL) {
         goto pause;                  /* (a dwell runs its time out) */
     }
     if (!st_line) {
@@ -768,7 +761,7 @@ ramp:
     /* Brake to the exit level in time, else climb to the cruise level. */
     st_cruising = 0;
     mv = 0;                          /* brake (or slow down for a feed hold) */
-    if (!(st_level && (HOLDING || st_level > st_seg.cruise ||
+    if (!(RAMP_ABOVE_START(st_level) && (HOLDING || st_level > st_seg.cruise ||
                        (st_level > st_seg.exit && st_seg.steps <= st_brake_at)))) {
         if (st_level >= st_seg.cruise || HOLDING) {
             goto cruise;
@@ -778,7 +771,7 @@ ramp:
     st_brake_at--;
     if (--st_level_left == 0) {
         if (!mv) {
-            st_level--;
+            st_level -= RAMP_STEP;
             st_level_left = HOLD_STEPS(st_level);
             st_below -= st_level_left;
             st_stale = 1;
@@ -788,13 +781,13 @@ ramp:
              * exit level itself it is minus that level's hold, so the sums
              * are taken modulo 2^16 as the 8051 does). */
             st_level_left = HOLD_STEPS(st_level);
-            hold = HOLD_STEPS(st_level + 1);
+            hold = HOLD_STEPS(st_level + RAMP_STEP);
             if (st_level < st_seg.exit ||
                 st_seg.steps >= (uint16_t)(st_brake_at + st_level_left + hold)) {
                 /* Room to brake from the next level too: climb. */
                 st_brake_at += st_level_left;
                 st_below += st_level_left;
-                st_level++;
+                st_level += RAMP_STEP;
                 st_level_left = hold;
                 st_stale = 1;
             } else if (st_seg.steps <= st_brake_at) {
@@ -810,7 +803,7 @@ ramp:
     }
     if (st_stale) {
         st_stale = 0;
-        mv = (uint8_t)(st_lbase + st_level);
+        mv = st_level;
         st_period = ((uint16_t)ramp_period_hi[mv] << 8) | ramp_period_lo[mv];
     }
 done:

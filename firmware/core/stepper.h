@@ -31,7 +31,7 @@ extern volatile FLAG st_paused;               /* stopped by a feed hold */
 extern volatile FLAG st_hold;                 /* feed hold requested */
 #define HOLDING st_hold
 extern FAST volatile uint8_t st_port;         /* last value written to the port, without step bits */
-extern FAST volatile uint8_t st_level;        /* current ramp level */
+extern FAST volatile uint8_t st_level;        /* current ramp level, as its tables' index RAMP_INDEX */
 extern IDATA volatile uint16_t st_underruns;  /* queue ran dry while motion should continue */
 
 void stepper_init(void);

@@ -15,13 +15,13 @@ Two shapes share the mechanism and differ only in their tables:
               (seed 004, section 4.3, table 4-1).
 Per level k a table holds: the step period (machine cycles, written as
 HAL_PERIOD(p), the form the step timer adds, split into low and high bytes so
-the interrupt reads each with one instruction), the rate in steps/s (for
-looking up the level of a requested speed outside the interrupt; the trapezoid's are
-a formula, core/ramp.h), and the
-steps to hold the level at the fastest acceleration.  The braking distance
-from a level is the sum of the holds below it; the planner adds them up once
-per command.  A build with RAMP_SHAPES 1 (core/ramp.h) compiles in the
-trapezoid only.
+the interrupt reads each with one instruction), and the steps to hold the
+level at the fastest acceleration.  The two shapes are interleaved, index
+2 * k + shape (RAMP_INDEX in core/ramp.h), so that levels of either shape
+step by 2 and the interrupt needs no row offset.  Both shapes start at R0
+and end at RMAX (RAMP_R0, RAMP_TOP).  The braking distance from a level is
+the sum of the holds below it; the planner adds them up once per command,
+and finds the level of a requested rate by the periods: no rate is tabled.
 """
 import math
 import sys
@@ -48,6 +48,11 @@ def tables():
     # Levels must be strictly increasing so that a rate maps to one level.
     for k in range(1, LEVELS):
         expo[k] = max(expo[k], expo[k - 1] + 1)
+    # Both shapes end at RMAX: one top rate (RAMP_TOP), whichever is set.
+    # The exponential's last step up is then RMAX minus 99% of it, less than
+    # a trapezoid level's DR.
+    assert RMAX - expo[-1] < DR
+    expo[-1] = RMAX
     return {"trap": shape(trap, DT_TRAP), "exp": shape(expo, DT_EXP)}
 
 
@@ -65,7 +70,7 @@ def main(out):
         "",
         f"/* trapezoid: R0={R0} DR={DR} steps/s per level, {DT_TRAP*1000:g} ms per level;",
         f"   exponential: tau={TAU*1000:.1f} ms, {DT_EXP*1000:.2f} ms per level; RMAX={RMAX} */",
-        f"#if RAMP_LEVELS != {LEVELS} || RAMP_ACCEL_TRAP != {accel} || RAMP_R0 != {R0} || RAMP_DR != {DR}",
+        f"#if RAMP_LEVELS != {LEVELS} || RAMP_SHAPES != 2 || RAMP_ACCEL_TRAP != {accel} || RAMP_R0 != {R0} || RAMP_TOP != {RMAX}",
         "#error core/ramp.h does not match tools/gen_ramp.py",
         "#endif",
         "#define LO(p) ((uint8_t)HAL_PERIOD(p))",
@@ -73,15 +78,11 @@ def main(out):
     ]
     for name, field, fmt in (("ramp_period_lo", 0, "LO({})".format),
                              ("ramp_period_hi", 0, "HI({})".format), ("ramp_hold", 2, str)):
+        both = [v for pair in zip(t["trap"][field], t["exp"][field]) for v in pair]
         lines += [f"RAMP_ROM uint8_t {name}[RAMP_SHAPES * RAMP_LEVELS] = {{",
-                  "    /* trapezoid */", rows(t["trap"][field], fmt) + ",",
-                  "#if RAMP_SHAPES > 1",
-                  "    /* exponential */", rows(t["exp"][field], fmt), "#endif", "};"]
-    # The trapezoid's rates are RAMP_R0 + k * RAMP_DR (core/ramp.h): only the
-    # exponential's are tabled.
-    assert t["trap"][1] == [R0 + k * DR for k in range(LEVELS)]
-    lines += ["#if RAMP_SHAPES > 1", "RAMP_ROM uint16_t ramp_rate_exp[RAMP_LEVELS] = {", rows(t["exp"][1]), "};",
-              "#endif"]
+                  "    /* level 0 trapezoid, level 0 exponential, level 1 trapezoid, ... */",
+                  rows(both, fmt), "};"]
+    assert t["trap"][1][-1] == t["exp"][1][-1] == RMAX
     text = "\n".join(lines) + "\n"
     with open(out, "w") as f:
         f.write(text)
