@@ -5,7 +5,7 @@
  *   FLAG                  type of a one-bit flag (a bit variable on the 8051)
  *   STEPPER_ISR           definition line of the step timer interrupt
  *   HAL_PERIOD(p)         a step period of p machine cycles in the timer's own form
- *   HAL_PERIOD_NOT_SHORTER(a, b)  periods a and b in that form: a lasts at least b
+ *   HAL_PERIOD_LONGER(a, b)  periods a and b in that form: a lasts longer than b
  *   HAL_TIMER_ADVANCE(r)  schedule the next step interrupt one period r = HAL_PERIOD(p)
  *                         after the one being served
  *   HAL_TIMER_START(p)    start the step timer, first interrupt after p cycles

@@ -103,9 +103,12 @@ static uint16_t period_of(uint16_t f)
 }
 
 /* The index (RAMP_INDEX) of the highest ramp level of the shape $1 whose
- * step period is at least p (in the timer's form, HAL_PERIOD): the fastest
- * level no faster than the rate of that period, found by the periods the
- * step interrupt runs, so no table of rates is needed.  Also leaves in plan.exit_brake the hold steps (times
+ * step period is longer than p (in the timer's form, HAL_PERIOD), found by
+ * the periods the step interrupt runs, so no table of rates is needed: the
+ * fastest level slower than the rate of p.  Strictly longer, as periods are
+ * rounded to whole cycles: a level whose period rounds to p may be a little
+ * faster than the rate asked for (9050 steps/s for 9000, both 102 cycles),
+ * and the climb must not go past the feed.  Also leaves in plan.exit_brake the hold steps (times
  * the multiplier) of the levels up to it, which the step interrupt takes
  * off the braking distance: the segment ends as it reaches that level.
  * Level 0 takes off nothing, so a stop runs level 0's hold at the start
@@ -117,7 +120,7 @@ static uint8_t level_for_period(uint16_t p)
     for (;;) {
         sum += (uint16_t)((uint8_t)ramp_hold[i] * (uint8_t)SETTING(SET_ACCEL));   /* MUL AB */
         if (i >= RAMP_INDEX(RAMP_LEVELS - 1, 0) ||
-            !HAL_PERIOD_NOT_SHORTER(((uint16_t)(ramp_period_hi + RAMP_STEP)[i] << 8) | (ramp_period_lo + RAMP_STEP)[i], p)) {
+            !HAL_PERIOD_LONGER(((uint16_t)(ramp_period_hi + RAMP_STEP)[i] << 8) | (ramp_period_lo + RAMP_STEP)[i], p)) {
             break;
         }
         i += RAMP_STEP;

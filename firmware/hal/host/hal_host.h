@@ -26,7 +26,7 @@ void host_segment_started(uint16_t seq);
 
 #define STEPPER_ISR void stepper_isr(void)
 #define HAL_PERIOD(p) ((uint16_t)(p))
-#define HAL_PERIOD_NOT_SHORTER(a, b) ((uint16_t)(a) >= (uint16_t)(b))
+#define HAL_PERIOD_LONGER(a, b) ((uint16_t)(a) > (uint16_t)(b))
 #define HAL_TIMER_ADVANCE(r) (host_period = (r))
 #define HAL_TIMER_START(p) (host_period = (p), host_timer_on = 1)
 #define HAL_TIMER_HALT() (host_timer_on = 0)

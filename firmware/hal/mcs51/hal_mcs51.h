@@ -79,7 +79,7 @@ __sfr16 __at(0x8C8A) TMR0;
 #define HAL_PERIOD(p) ((uint16_t)(TIMER_STOPPED_CYCLES - (uint16_t)(p)))
 /* The longer of two periods has the smaller timer value (for periods of
  * more than TIMER_STOPPED_CYCLES, as every step period is). */
-#define HAL_PERIOD_NOT_SHORTER(a, b) ((uint16_t)(a) <= (uint16_t)(b))
+#define HAL_PERIOD_LONGER(a, b) ((uint16_t)(a) < (uint16_t)(b))
 
 #define STEPPER_ISR void stepper_isr(void) __interrupt(1) __using(1)
 
