@@ -49,5 +49,8 @@ class Probe:
     def close(self) -> None:
         import rclpy
         self.executor.shutdown(timeout_sec=2.0)
+        # The node goes only once the spin thread has left the executor: a
+        # task still running would fail on its destroyed handles.
+        self._thread.join(timeout=5.0)
         self.node.destroy_node()
         rclpy.try_shutdown(context=self.context)

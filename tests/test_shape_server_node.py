@@ -145,9 +145,9 @@ class Probe:
         self.closing.set()
         time.sleep(0.2)  # let a FakeStreamer goal still running end itself
         self.executor.shutdown()
+        self.thread.join(5)                # out of the executor before the node goes
         self.node.destroy_node()
         rclpy.shutdown(context=self.context)
-        self.thread.join(5)
 
 
 @pytest.fixture

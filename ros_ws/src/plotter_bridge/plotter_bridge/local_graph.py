@@ -140,6 +140,9 @@ class LocalGraph:
     def close(self) -> None:
         self._client.destroy()
         self._executor.shutdown(timeout_sec=2.0)
+        # The nodes go only once the spin thread has left the executor: a
+        # callback still running would fail on their destroyed handles.
+        self._spin.join(timeout=5.0)
         for node in (self.client_node, self.streamer, self.bridge):
             node.destroy_node()
         if self.board is not None:
