@@ -13,11 +13,11 @@ from pathlib import Path
 REPO_ROOT = Path(__file__).resolve().parent.parent
 FIRMWARE = REPO_ROOT / "firmware"
 
-DEFAULTS = {"INTERP": "pbp", "DRIVE": "stepdir", "ZAXIS": "0", "PANEL": "0"}
+DEFAULTS = {"INTERP": "pbp", "DRIVE": "stepdir", "ZAXIS": "0"}
 
 
 # Options that are on/off flags: their directory name when on.
-FLAG_NAMES = {"ZAXIS": "z", "PANEL": "panel"}
+FLAG_NAMES = {"ZAXIS": "z"}
 
 
 def build_dir(**options) -> Path:

@@ -1,4 +1,4 @@
-"""What the tests of the front-panel image share (firmware/README.md, *Front panel*):
+"""What the tests of the front panel share (firmware/README.md, *Front panel*):
 the key codes, the digit keys, and the check of a drawn figure against its
 commands (firmware/tools/gen_figures.py)."""
 from __future__ import annotations

@@ -1,10 +1,8 @@
-"""The host link of firmware/PROTOCOL.md, spoken by the real 8051 images in s51.
+"""The host link of firmware/PROTOCOL.md, spoken by the real 8051 image in s51.
 
-Both images a board can carry are driven the way serial_bridge drives them,
-with the host's own encoder and reply parser (plotter_bridge.protocol): the
-serial controller (make -C firmware) and the front-panel image (PANEL=1),
-which is the same controller with the keypad, the displays and the figures
-beside it.  Checked for each:
+The board's image (make -C firmware: the serial controller with the front
+panel beside it) is driven the way serial_bridge drives it, with the host's
+own encoder and reply parser (plotter_bridge.protocol).  Checked:
 
 - machine lines are answered `ok N<seq> Q<free>`, every reply and status
   report carries a checksum that the host's parser accepts;
@@ -31,7 +29,6 @@ sys.path.insert(0, str(FIRMWARE / "tools"))
 import s51sim  # noqa: E402
 
 REPLY = rb"(?:ok|err|rs)[^\r\n]*\r\n"
-IMAGES = {"serial": {}, "panel": {"PANEL": "1"}}
 
 
 class Link:
@@ -63,22 +60,21 @@ class Link:
             time.sleep(0.05)
 
 
-@pytest.fixture(scope="module", params=sorted(IMAGES))
-def link(request):
+@pytest.fixture(scope="module")
+def link():
     require_s51()
-    with s51sim.Sim(mcu_image(**IMAGES[request.param]), timeout=60.0) as sim:
+    with s51sim.Sim(mcu_image(), timeout=60.0) as sim:
         sim.go()
         banner = sim.read_until(rb"ready[^\n]*\n").decode().strip()
         link = Link(sim)
         link.banner = banner
-        link.image = request.param
         yield link
 
 
-def test_banner_is_checked_and_names_the_image(link):
+def test_banner_is_checked(link):
     reply = parse_reply(link.banner)
     assert isinstance(reply, Banner), link.banner
-    assert reply.text.endswith("panel ready" if link.image == "panel" else "1.0 ready")
+    assert reply.text == "PLOTTER 8051 1.0 ready"
 
 
 def test_machine_lines_resends_and_dwell(link):

@@ -1,4 +1,4 @@
-"""The front-panel image (make -C firmware PANEL=1) in the s51 simulator.
+"""The board's image (make -C firmware), front panel and all, in the s51 simulator.
 
 One simulated board is driven as a person would use it: keys pressed by
 pulling the keypad's row and column pins low (the firmware scans the 4x4
@@ -147,7 +147,7 @@ class Board:
 @pytest.fixture(scope="module")
 def image():
     require_s51()
-    return mcu_image(PANEL="1")
+    return mcu_image()
 
 
 @pytest.fixture(scope="module")
@@ -258,7 +258,7 @@ def walk(items) -> tuple[int, int]:
 
 
 def test_banner_says_panel(session):
-    assert session["banner"].startswith("PLOTTER 8051 1.0 panel ready")
+    assert session["banner"].startswith("PLOTTER 8051 1.0 ready")
 
 
 def test_stack_stays_within_its_reserve(session):
@@ -315,7 +315,7 @@ def host_schedule(commands) -> list[float]:
             lines.append(f"L {a[0]} {a[1]}")
         elif kind in ("cw", "ccw"):
             lines.append(f"{'C' if kind == 'cw' else 'A'} {a[0]} {a[1]} {a[2]} {a[3]}")
-    core = FirmwareCore(host_library(PANEL="1"))
+    core = FirmwareCore(host_library())
     try:
         out, since = [], 0
         here = core.position
@@ -404,7 +404,7 @@ def test_step_jitter_with_the_displays_running(session, record_property):
     waits for the step that starts braking.  Those are the ramp's, not the
     displays', and are left out.)"""
     got = [s for s in steps_between(session, session["marks"]["fast"]) if isinstance(s, vcd_trace.Step)]
-    core = FirmwareCore(host_library(PANEL="1"))
+    core = FirmwareCore(host_library())
     try:
         core.receive(b"L 12000 0 9000\n")
         core.poll(3)

@@ -164,8 +164,7 @@ def test_stack_stays_within_its_reserve(run):
     assert used <= 40, used
 
 
-@pytest.mark.parametrize("options", [{}, {"PANEL": "1"}], ids=["serial", "panel"])
-def test_position_copy_takes_a_step_between_its_reads(options):
+def test_position_copy_takes_a_step_between_its_reads():
     """stepper_snapshot copies X and Y for the status report and the LCD
     without masking the step interrupt, and copies again if a step came in
     between.  Stopped in s51 just after it has copied X, X is changed as a
@@ -173,7 +172,7 @@ def test_position_copy_takes_a_step_between_its_reads(options):
     compiled the check as comparing pos_x with itself, and the stale X went
     out)."""
     require_s51()
-    with s51sim.Sim(mcu_image(**options)) as sim:
+    with s51sim.Sim(mcu_image()) as sim:
         sim.go()
         sim.read_until(rb"ready[^\n]*\n")
         sim.stop()

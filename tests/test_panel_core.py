@@ -1,5 +1,5 @@
-"""The front panel's logic in the host build of the panel image
-(firmware/build/panel/libplotter_core.so): the same C as the 8051 image, with
+"""The front panel's logic in the host build of the board's image
+(firmware/build/libplotter_core.so): the same C as the 8051 image, with
 the keypad, LCD, 7-segment display, e-stop and limit switches played by the
 test (hal/host).  Fast and exhaustive where the s51 test
 (test_firmware_panel.py) is faithful to the pins: every key of the seed's
@@ -31,10 +31,10 @@ BIT_X_DIR, BIT_Y_DIR = 0x02, 0x08           # the closed limit switches, as the 
 
 
 class Panel:
-    """The panel image's core with its 1 ms tick, keys and displays."""
+    """The board image's core with its 1 ms tick, keys and displays."""
 
     def __init__(self) -> None:
-        self.core = FirmwareCore(host_library(PANEL="1"))
+        self.core = FirmwareCore(host_library())
         lib = self.core._lib
         lib.core_lcd_line.restype = ctypes.c_char_p
         self.lib = lib
@@ -98,7 +98,7 @@ def panel():
 
 
 def test_start_screen(panel):
-    assert panel.core.transmitted().startswith(b"PLOTTER 8051 1.0 panel ready")
+    assert panel.core.transmitted().startswith(b"PLOTTER 8051 1.0 ready")
     assert panel.lcd() == ("X0 Y0", "Ready")
     assert panel.digits() == "    2000"              # the jog feed
 

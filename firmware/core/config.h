@@ -6,11 +6,6 @@
 
 #define FW_NAME     "PLOTTER 8051"
 #define FW_VERSION  "1.0"
-#ifdef PANEL
-#define FW_EDITION  " panel"        /* the banner tells a host which image it meets */
-#else
-#define FW_EDITION  ""
-#endif
 
 /* STC89C52RC at 11.0592 MHz, 12 clocks per machine cycle. */
 #define CYCLES_PER_S  921600UL
@@ -36,15 +31,16 @@
 #define INTERP_DIAGONAL 1
 #endif
 
-/* The front panel (build option PANEL, README.md: keypad, LCD, 7-segment
- * display, built-in figures, e-stop and limit inputs, core/panel.h), beside
- * the whole host link. */
+/* The front panel (README.md: keypad, LCD, 7-segment display, built-in
+ * figures, e-stop and limit inputs, core/panel.h): PANEL is defined for the
+ * board's image, which has it beside the whole host link, and not for the
+ * option images, which use its pins. */
 #ifdef PANEL
 #define RT_STAR     'a'             /* real-time byte between lines: draw the star (seed 000, 4.3) */
 #endif
 
 /* The host link's two sequence counters (planner.h, protocol.c) sit where
- * the image has room: internal RAM is full in the panel image, XRAM in the
+ * the image has room: internal RAM is full in the board's image, XRAM in the
  * comparison-integration one (its queue_final, planner.c). */
 #ifdef INTERP_COMPARE
 #define SEQ_MEM IDATA

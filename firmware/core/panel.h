@@ -1,8 +1,8 @@
 /* panel.h - the board's own front panel (seed 000, chapters 3-4): the 4x4
  * keypad and its functions, numeric entry on the 7-segment display, the
- * prompts on the LCD, and the built-in figures the keys start.  Only in the
- * panel image (PANEL, config.h): the other images drive machines without
- * this panel. */
+ * prompts on the LCD, and the built-in figures the keys start.  In the
+ * board's image (PANEL, defined by the Makefile); the option images drive
+ * other machines and use its pins for their windings or Z axis. */
 #ifndef PANEL_H
 #define PANEL_H
 

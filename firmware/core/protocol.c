@@ -172,7 +172,7 @@ void protocol_init(void)
     expected_seq = 0;
     resend_asked = 0;
     alarm_code = 0;
-    put_str(FW_NAME " " FW_VERSION FW_EDITION " ready");
+    put_str(FW_NAME " " FW_VERSION " ready");
     put_eol();
 }
 
