@@ -64,3 +64,36 @@ def test_mock_board_replies_at_the_baud_rate(board):
     assert report.startswith(b"<Idle") and first_ok.startswith(b"ok N0")
     # Parsed only once all but 17 bytes of the report and the first reply had left.
     assert t >= first + (len(report) + len(first_ok) + 4 - TX_SIZE - 1) * BYTE_9600 - 1e-9
+
+
+def test_a_serial_a_draws_the_star_on_the_mock_board(tmp_path):
+    """The mock board runs the board's image, front panel included: its
+    main loop ticks the panel every millisecond, so a single `a` between
+    lines draws the built-in star (seed 000, 4.3) as the 8051 does: every
+    step of its trace within one step of the figure (its strokes and its
+    pen-up travel), and back where it began."""
+    import sys
+
+    from firmware_build import FIRMWARE
+    from panel_keys import distance, figure_segments
+    sys.path.insert(0, str(FIRMWARE / "tools"))
+    import gen_figures
+
+    trace_path = tmp_path / "steps.csv"
+    b = MockBoard(MockBoardConfig(baud=9600, trace=str(trace_path)), FirmwareCore(host_library()))
+    try:
+        b.rx.push(b"a", 0.0)
+        t = 0.0
+        while t < 30.0 and (t < 0.1 or b.core.timer_running()):
+            t += 0.002
+            b._serial(t)
+            b._run_steps(t)
+        assert not b.core.timer_running(), "still drawing after 30 s"
+    finally:
+        b.close()
+    trace = [tuple(int(v) for v in line.split(",")[1:]) for line in trace_path.read_text().splitlines()[1:]]
+    segments = figure_segments(gen_figures.all_figures()["FIG_STAR"])
+    assert len(trace) > 1000, len(trace)
+    for p in trace:
+        assert min(distance(p, s) for s in segments) <= 1.0, p
+    assert trace[-1] == (0, 0)

@@ -61,6 +61,8 @@ class FirmwareCore:
         self.has_z = hasattr(lib, "core_pos_z")
         if self.has_z:
             lib.core_pos_z.restype = ctypes.c_int32
+        # The board's image has the front panel; the option builds do not.
+        self.has_panel = hasattr(lib, "core_panel_tick")
         lib.core_period.restype = ctypes.c_uint
         lib.core_tx_read.restype = ctypes.c_uint32
         lib.core_seq_log.restype = ctypes.c_uint32
@@ -98,6 +100,12 @@ class FirmwareCore:
             out += self._txbuf.raw[:n]
             if n < len(self._txbuf):
                 return bytes(out)
+
+    def panel_tick(self) -> None:
+        """The front panel's 1 ms tick of the board's main loop: keys, the
+        built-in figures (a serial `a` draws the star), the displays."""
+        if self.has_panel:
+            self._lib.core_panel_tick()
 
     def timer_running(self) -> bool:
         return bool(self._lib.core_timer_on())

@@ -44,6 +44,7 @@ TX_SIZE = 16          # firmware core/config.h: the transmit ring
 # Bytes the board acts on as soon as they arrive: line ends and the real-time bytes.
 RX_EVENTS = b"\n\r?!~\x18\x1b"
 STALL = 0.003         # s: a pass of the loop this much later than it meant to wake is a stall
+PANEL_CATCH_UP_MS = 100   # panel ticks run at most this late: a stalled process does not replay seconds
 
 
 @dataclass
@@ -88,6 +89,7 @@ class MockBoard:
         self.down = FaultyChannel(config.faults, 0)    # pty -> core
         self.up = FaultyChannel(config.faults, 1)      # core -> pty
         self.board_time = 0.0          # seconds on the board's clock
+        self._panel_ms = 0             # board milliseconds the panel has ticked
         # Passes that ran STALL or more after they were due (the process was not
         # scheduled): the board's steps catch up, but its serial line was late.
         self.stalls = 0
@@ -233,8 +235,10 @@ class MockBoard:
 
     def _main_loop(self, t: float) -> None:
         """Run the firmware's main loop (a line or a status report per pass)
-        while its replies fit in the transmit ring."""
+        while its replies fit in the transmit ring, and its panel tick for
+        each millisecond up to t."""
         self._tx_out += self.tx.pop_due(t)
+        self._panel_ticks(t)
         for _ in range(4):
             if self._tx_blocked():
                 return
@@ -242,6 +246,17 @@ class MockBoard:
             out = self.core.transmitted()
             if out:
                 self.tx.push(out, t)
+
+    def _panel_ticks(self, t: float) -> None:
+        """The board's 1 ms panel tick, caught up to board time t; after a
+        stall of the process, at most PANEL_CATCH_UP_MS of them."""
+        if not self.core.has_panel:
+            return
+        due = int(t * 1000)
+        self._panel_ms = max(self._panel_ms, due - PANEL_CATCH_UP_MS)
+        while self._panel_ms < due:
+            self._panel_ms += 1
+            self.core.panel_tick()
 
     def _events(self, now: float) -> None:
         faults = self.config.faults
