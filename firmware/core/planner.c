@@ -78,10 +78,10 @@ static uint8_t commit(void)
 }
 
 /* The step period at rate f, CYCLES_PER_S / f machine cycles rounded, in
- * the timer's form (HAL_PERIOD), for f in FEED_MIN..32767.  A long division by shift and subtract, the
- * quotient shifting in where the dividend shifts out: it needs no library
- * division, and with CYCLES_PER_S < FEED_MIN * 2^16 the quotient fits 16
- * bits. */
+ * the timer's form (HAL_PERIOD), for f in FEED_MIN..32767.  A long division
+ * by shift and subtract, the quotient shifting in where the dividend shifts
+ * out: it needs no library division, and with CYCLES_PER_S < FEED_MIN * 2^16
+ * the quotient fits 16 bits. */
 #if CYCLES_PER_S >= FEED_MIN * 65536UL || RAMP_TOP > 32767
 #error period_of: the quotient or the feed outgrows 16 bits
 #endif
@@ -108,11 +108,13 @@ static uint16_t period_of(uint16_t f)
  * fastest level slower than the rate of p.  Strictly longer, as periods are
  * rounded to whole cycles: a level whose period rounds to p may be a little
  * faster than the rate asked for (9050 steps/s for 9000, both 102 cycles),
- * and the climb must not go past the feed.  Also leaves in plan.exit_brake the hold steps (times
- * the multiplier) of the levels up to it, which the step interrupt takes
- * off the braking distance: the segment ends as it reaches that level.
- * Level 0 takes off nothing, so a stop runs level 0's hold at the start
- * rate, as a start does.  A leaf, so that SDCC overlays its locals. */
+ * and the climb must not go past the feed.
+ *
+ * Also leaves in plan.exit_brake the hold steps (times the multiplier) of
+ * the levels up to it, which the step interrupt takes off the braking
+ * distance: the segment ends as it reaches that level.  Level 0 takes off
+ * nothing, so a stop runs level 0's hold at the start rate, as a start
+ * does.  A leaf, so that SDCC overlays its locals. */
 static uint8_t level_for_period(uint16_t p)
 {
     uint8_t i = RAMP_INDEX(0, SETTING(SET_SHAPE));
