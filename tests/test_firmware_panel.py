@@ -257,7 +257,7 @@ def walk(items) -> tuple[int, int]:
     return x, y
 
 
-def test_banner_says_panel(session):
+def test_banner(session):
     assert session["banner"].startswith("PLOTTER 8051 1.0 ready")
 
 

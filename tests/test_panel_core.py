@@ -126,6 +126,27 @@ def test_a_key_held_acts_once(panel):
     assert panel.position == (JOG, 0)
 
 
+def test_contact_bounce_and_short_touches_do_nothing(panel):
+    """A key acts once it has read the same for 10 ms (core/panel.c
+    DEBOUNCE): a contact bouncing on and off every few milliseconds, and a
+    touch of 8 ms, move nothing; bouncing, then held, the key jogs once."""
+    def bounce():
+        for _ in range(5):
+            panel.lib.core_set_key(K_XP)
+            panel.tick(3)
+            panel.lib.core_set_key(NO_KEY)
+            panel.tick(2)
+
+    bounce()
+    panel.press(K_XP, hold=8)
+    panel.run(1000)
+    assert panel.position == (0, 0)
+    bounce()
+    panel.press(K_XP, hold=30)
+    panel.run(2000)
+    assert panel.position == (JOG, 0)
+
+
 def test_keys_without_function_do_nothing(panel):
     for key in (K_NO_FUNCTION, K_PAUSE):          # pausing nothing does nothing
         panel.press(key)
