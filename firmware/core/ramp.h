@@ -4,8 +4,8 @@
  * ramp_hold[shape][k] * accel_multiplier steps before the next level, so the
  * steps needed to brake from level k down to level e are a sum of holds:
  * no division anywhere.  The tables interleave the shapes, index
- * 2 * level + shape (RAMP_INDEX): the step interrupt forms it by shifting
- * the shape's bit in, and reads each byte with a single `movc`. */
+ * 2 * level + shape (RAMP_INDEX), and the stepper keeps its level as such
+ * an index: the step interrupt reads each byte with a single `movc`. */
 #ifndef RAMP_H
 #define RAMP_H
 
@@ -35,7 +35,7 @@ extern RAMP_ROM uint8_t  ramp_hold[RAMP_SHAPES * RAMP_LEVELS];   /* steps per le
  * one shape compare as their indexes do. */
 #define RAMP_INDEX(level, shape) ((uint8_t)((uint8_t)((uint8_t)(level) << 1) | (uint8_t)(shape)))
 #define RAMP_STEP 2
-#define RAMP_SHAPE_BIT 1
+#define RAMP_START(index) ((uint8_t)((index) & 1))                 /* level 0 of its shape */
 #define RAMP_ABOVE_START(index) ((uint8_t)(index) >= RAMP_STEP)  /* above level 0 */
 
 #define RAMP_ACCEL_TRAP 100000    /* trapezoid acceleration at divisor 1, steps/s^2 */

@@ -315,7 +315,7 @@ INLINE uint8_t load_segment(void)
             st_port = (st_port & ~BIT_PEN) | st_seg.dirs;
         }
         st_seg.kind = SEG_DWELL;
-        st_level &= RAMP_SHAPE_BIT;  /* level 0 */
+        st_level = RAMP_START(st_level);
         st_below = 0;
         st_level_left = HOLD_STEPS(st_level);
     } else {
@@ -342,7 +342,7 @@ INLINE uint8_t load_segment(void)
     brake = st_seg.exit_brake;
     if (RAMP_ABOVE_START(st_seg.exit) && n == q_head) {
         /* Nothing follows yet: plan to stop rather than run off the queue's end. */
-        st_seg.exit &= RAMP_SHAPE_BIT;
+        st_seg.exit = RAMP_START(st_seg.exit);
         brake = 0;                   /* as the planner's for level 0 */
         st_underruns++;
     }

@@ -157,7 +157,6 @@ int core_drive(void) { return 3; }
 int core_drive(void) { return 0; }
 #endif
 int core_running(void) { return st_running; }
-int core_level(void) { return st_level >> 1; }   /* the level, not its index */
 unsigned core_queue_free(void) { return QUEUE_FREE(); }
 unsigned core_underruns(void) { return st_underruns; }
 int core_alarm(void) { return alarm_code; }

@@ -148,10 +148,6 @@ class FirmwareCore:
         return int(self._lib.core_underruns())
 
     @property
-    def level(self) -> int:
-        return int(self._lib.core_level())
-
-    @property
     def alarm(self) -> int:
         return int(self._lib.core_alarm())
 
