@@ -31,9 +31,9 @@ from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Dict, List, Optional, Sequence, Tuple
 
-from plotter_bridge.commands import FIRMWARE_ACCEL
-from plotter_bridge.program import StreamerConfig
-from plotter_bridge.protocol import machine_line
+from plotter_bridge.motion.commands import FIRMWARE_ACCEL
+from plotter_bridge.motion.compiler import StreamerConfig
+from plotter_bridge.link.protocol import machine_line
 
 from bound import Limits, program_time
 from latency import report_ages

@@ -27,7 +27,7 @@ import threading
 import time
 from pathlib import Path
 
-from plotter_bridge.mock_board import MockBoard, MockBoardConfig
+from plotter_bridge.sim.mock_board import MockBoard, MockBoardConfig
 
 LATE = 0.005          # seconds behind real time that count as late
 

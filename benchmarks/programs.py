@@ -15,8 +15,8 @@ import math
 from dataclasses import dataclass
 from typing import List, Sequence, Tuple
 
-from plotter_bridge.commands import BoardCommand
-from plotter_bridge.program import StreamerConfig, compile_program
+from plotter_bridge.motion.commands import BoardCommand
+from plotter_bridge.motion.compiler import StreamerConfig, compile_program
 from plotter_shapes.geometry import SEED_FIGURES, goal_program
 
 from bound import Item, Move, Wait

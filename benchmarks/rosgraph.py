@@ -20,9 +20,10 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Dict, List, Optional, Sequence, Tuple
 
-from plotter_bridge.commands import BoardCommand
-from plotter_bridge.program import StreamerConfig
-from plotter_bridge.node_processes import NodeProcess, wait_until
+sys.path.insert(0, str(Path(__file__).resolve().parent.parent / "tests"))   # the node graph as processes
+from node_processes import NodeProcess, wait_until  # noqa: E402
+from plotter_bridge.motion.commands import BoardCommand
+from plotter_bridge.motion.compiler import StreamerConfig
 
 from latency import report_ages
 from programs import Program, compile_for
@@ -176,9 +177,9 @@ class BenchGraph:
         wait_until(lambda: self.link.exists() and self.stats_path.exists(), 20, "the mock board")
         self.trace.start = self.board_stats()["start"]
         ns = ("-r", "__ns:=/plotter")
-        self.bridge = NodeProcess("plotter_bridge.serial_bridge_node", self.domain,
+        self.bridge = NodeProcess("plotter_bridge.nodes.serial_bridge", self.domain,
                                   ns + ("-p", f"port:={self.link}", "-p", f"baud:={baud}"))
-        self.streamer = NodeProcess("plotter_bridge.gcode_streamer_node", self.domain, ns)
+        self.streamer = NodeProcess("plotter_bridge.nodes.gcode_streamer", self.domain, ns)
         self.sampler = ProcSampler({"serial_bridge": self.bridge.proc.pid,
                                     "gcode_streamer": self.streamer.proc.pid,
                                     "mock_board": self.mock.pid})

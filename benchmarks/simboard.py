@@ -28,7 +28,7 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 from typing import Callable, List, Optional, Tuple
 
-from plotter_bridge.firmware_core import CYCLES_PER_S, FirmwareCore
+from plotter_bridge.sim.firmware_core import CYCLES_PER_S, FirmwareCore
 
 TX_SIZE = 16          # core/config.h: the transmit ring
 RX_SIZE = 64          # core/config.h: the receive ring

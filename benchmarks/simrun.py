@@ -6,10 +6,10 @@ import statistics
 from dataclasses import dataclass, field
 from typing import List, Optional, Sequence, Tuple
 
-from plotter_bridge.commands import BoardCommand
-from plotter_bridge.firmware_core import FirmwareCore
-from plotter_bridge.link import BoardLink, Command
-from plotter_bridge.protocol import Status, machine_line
+from plotter_bridge.motion.commands import BoardCommand
+from plotter_bridge.sim.firmware_core import FirmwareCore
+from plotter_bridge.link.board_link import BoardLink, Command
+from plotter_bridge.link.protocol import Status, machine_line
 
 from simboard import SimBoard, settle
 

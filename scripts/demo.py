@@ -24,8 +24,9 @@ from rclpy.context import Context
 from rclpy.executors import SingleThreadedExecutor
 from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
 
-from plotter_bridge.node_processes import PlotterGraph, read_trace, wait_until
-from plotter_bridge.picture import figure_polylines, runs_near_path, write_picture
+sys.path.insert(0, str(Path(__file__).resolve().parent.parent / "tests"))   # the node graph as processes
+from node_processes import PlotterGraph, read_trace, wait_until  # noqa: E402
+from plotter_bridge.cli.picture import figure_polylines, runs_near_path, write_picture
 from plotter_interfaces.msg import BoardState, ShapeGoal
 from plotter_shapes.geometry import SEED_FIGURES, build_shape
 

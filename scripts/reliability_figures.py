@@ -21,7 +21,7 @@ ROOT = Path(__file__).resolve().parent.parent
 sys.path[:0] = [str(ROOT / "tests"), str(ROOT / "ros_ws" / "src" / "plotter_bridge")]
 
 from firmware_build import host_library  # noqa: E402
-from plotter_bridge.faults import FaultCounts, parse_faults  # noqa: E402
+from plotter_bridge.sim.faults import FaultCounts, parse_faults  # noqa: E402
 from reliability_sim import fault_run  # noqa: E402
 
 RATES = [

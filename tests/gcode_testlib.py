@@ -136,7 +136,7 @@ def expected_message(ngc_text: str) -> str:
 
 def check_json(path: Path, *extra: str) -> List[dict]:
     """``plotter check PATH --json`` parsed, run in-process; asserts exit code 0."""
-    from plotter_bridge import cli
+    from plotter_bridge.cli import main as cli
 
     out, err = io.StringIO(), io.StringIO()
     with contextlib.redirect_stdout(out), contextlib.redirect_stderr(err):

@@ -1,11 +1,11 @@
 """The plotter's nodes as separate processes, without a launch system.
 
 Each node runs as `python -m <module> --ros-args ...`, exactly as `ros2 run`
-starts it; used by the demo (scripts/demo.py) and the end-to-end tests.
+starts it; used by the end-to-end tests, the demo (scripts/demo.py) and the
+benchmark (benchmarks/rosgraph.py), which put tests/ on their path.
 """
 from __future__ import annotations
 
-import csv
 import os
 import signal
 import subprocess
@@ -14,6 +14,8 @@ import tempfile
 import time
 from pathlib import Path
 from typing import Callable, List
+
+from plotter_bridge.sim.trace import read_seq_log, read_trace  # noqa: F401  (for the tests)
 
 
 def wait_until(predicate: Callable[[], bool], timeout: float = 30.0, what: str = "condition") -> None:
@@ -76,14 +78,14 @@ class PlotterGraph:
         self.journal = workdir / "journal"
         self._ns = ("-r", f"__ns:={namespace}")
         ns = self._ns
-        self.board = NodeProcess("plotter_bridge.mock_board_node", domain,
+        self.board = NodeProcess("plotter_bridge.nodes.mock_board", domain,
                                  ns + ("-p", f"link:={self.link}", "-p", f"trace:={self.trace}",
                                        "-p", f"seq_log:={self.seq_log}") + tuple(board_args))
         wait_until(self.link.exists, 20, "the mock board's pty link")
-        self.bridge = NodeProcess("plotter_bridge.serial_bridge_node", domain,
+        self.bridge = NodeProcess("plotter_bridge.nodes.serial_bridge", domain,
                                   ns + ("-p", f"port:={self.link}") + tuple(bridge_args))
         self._streamer_args = ns + ("-p", f"journal_dir:={self.journal}") + tuple(streamer_args)
-        self.streamer = NodeProcess("plotter_bridge.gcode_streamer_node", domain, self._streamer_args)
+        self.streamer = NodeProcess("plotter_bridge.nodes.gcode_streamer", domain, self._streamer_args)
         self.shapes = NodeProcess("plotter_shapes.shape_server_node", domain, ns)
         self.processes = [self.shapes, self.streamer, self.bridge, self.board]
         self.dead: List[NodeProcess] = []
@@ -91,7 +93,7 @@ class PlotterGraph:
     def restart_streamer(self) -> None:
         """A new gcode_streamer process (after the old one died), same journal."""
         old = self.streamer
-        self.streamer = NodeProcess("plotter_bridge.gcode_streamer_node", self.domain, self._streamer_args)
+        self.streamer = NodeProcess("plotter_bridge.nodes.gcode_streamer", self.domain, self._streamer_args)
         self.processes[self.processes.index(old)] = self.streamer
         self.dead.append(old)
 
@@ -108,24 +110,3 @@ class PlotterGraph:
             finally:
                 p.close()
         return codes
-
-
-def read_seq_log(path: Path) -> List[object]:
-    """The mock board's sequence log: ints, and "reset" where the board restarted."""
-    with open(path) as f:
-        rows = f.read().split()
-    assert rows[0] == "seq"
-    return [r if r == "reset" else int(r) for r in rows[1:]]
-
-
-def read_trace(path: Path, z: bool = False) -> List[tuple]:
-    """The mock board's step trace: (t_s, x_steps, y_steps) a step, with
-    `z` (a board with a Z axis) (t_s, x_steps, y_steps, z_steps)."""
-    with open(path) as f:
-        rows = list(csv.reader(f))
-    header = rows[0]
-    assert header[:3] == ["t_s", "x_steps", "y_steps"] and header[3:] in ([], ["z_steps"]), header
-    assert header[3:] == ["z_steps"] or not z, "the trace has no z_steps: a board without a Z axis"
-    if z:
-        return [(float(t), int(x), int(y), int(zs)) for t, x, y, zs in rows[1:]]
-    return [(float(t), int(x), int(y)) for t, x, y, *_ in rows[1:]]

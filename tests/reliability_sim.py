@@ -10,10 +10,10 @@ import random
 from dataclasses import dataclass
 from typing import Callable, List, Optional, Tuple
 
-from plotter_bridge.board_session import BoardSession, Job, SessionConfig
-from plotter_bridge.faults import FaultCounts, FaultSpec
-from plotter_bridge.firmware_core import FirmwareCore
-from plotter_bridge.protocol import SEQ_MOD
+from plotter_bridge.link.board_session import BoardSession, Job, SessionConfig
+from plotter_bridge.sim.faults import FaultCounts, FaultSpec
+from plotter_bridge.sim.firmware_core import FirmwareCore
+from plotter_bridge.link.protocol import SEQ_MOD
 from sim_port import SimPort
 
 DT = 0.002

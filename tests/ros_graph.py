@@ -1,4 +1,4 @@
-"""Test helpers: the node graph as processes (plotter_bridge.node_processes),
+"""Test helpers: the node graph as processes (node_processes.py),
 a probe node in the test process, and geometry for comparing traces."""
 from __future__ import annotations
 
@@ -6,7 +6,7 @@ import math
 import os
 import threading
 
-from plotter_bridge.node_processes import NodeProcess, PlotterGraph, read_trace, wait_until  # noqa: F401
+from node_processes import NodeProcess, PlotterGraph, read_trace, wait_until  # noqa: F401
 
 
 def distance_to_segment(p, seg) -> float:

@@ -11,8 +11,8 @@ from __future__ import annotations
 
 from typing import Callable, Optional
 
-from plotter_bridge.faults import FaultSpec, FaultyChannel
-from plotter_bridge.firmware_core import CYCLES_PER_S, FirmwareCore
+from plotter_bridge.sim.faults import FaultSpec, FaultyChannel
+from plotter_bridge.sim.firmware_core import CYCLES_PER_S, FirmwareCore
 
 Mangle = Callable[[bytes], bytes]
 

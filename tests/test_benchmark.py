@@ -8,10 +8,10 @@ from pathlib import Path
 import pytest
 
 from firmware_build import host_library
-from plotter_bridge.commands import BoardCommand
-from plotter_bridge.firmware_core import FirmwareCore
-from plotter_bridge.planner import cap_for_link, link_baud, wire_bytes
-from plotter_bridge.protocol import machine_line
+from plotter_bridge.motion.commands import BoardCommand
+from plotter_bridge.sim.firmware_core import FirmwareCore
+from plotter_bridge.motion.planner import cap_for_link, link_baud, wire_bytes
+from plotter_bridge.link.protocol import machine_line
 
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent / "benchmarks"))
 from bound import Limits, Move, Wait, chain_time, corner_rate, junction_rates, move_time, program_time  # noqa: E402

@@ -20,7 +20,7 @@ import random
 import pytest
 
 from firmware_build import host_library
-from plotter_bridge.firmware_core import FirmwareCore
+from plotter_bridge.sim.firmware_core import FirmwareCore
 
 METHODS = ["pbp", "dda", "compare"]
 

@@ -22,7 +22,7 @@ import time
 import pytest
 
 from firmware_build import FIRMWARE, mcu_image, require_s51
-from plotter_bridge.protocol import (RT_HOLD, RT_RESUME, RT_STATUS, Banner, Ok, Resend, Status,
+from plotter_bridge.link.protocol import (RT_HOLD, RT_RESUME, RT_STATUS, Banner, Ok, Resend, Status,
                                      machine_line, parse_reply)
 
 sys.path.insert(0, str(FIRMWARE / "tools"))

@@ -36,7 +36,7 @@ import vcd_trace
 from firmware_build import FIRMWARE, host_library, mcu_image, require_s51
 from panel_keys import (JOG, K_CAR, K_CAR_REV, K_CIRCLE, K_DIAG, K_FASTER, K_NO_FUNCTION, K_RESET,
                         K_SLOWER, K_STAR, K_XN, K_XP, K_YN, K_YP, assert_on_figure, digit_key)
-from plotter_bridge.firmware_core import FirmwareCore
+from plotter_bridge.sim.firmware_core import FirmwareCore
 
 sys.path.insert(0, str(FIRMWARE / "tools"))
 import s51sim  # noqa: E402

@@ -21,7 +21,7 @@ import sys
 import pytest
 
 from firmware_build import FIRMWARE, host_library
-from plotter_bridge.firmware_core import FirmwareCore, Step
+from plotter_bridge.sim.firmware_core import FirmwareCore, Step
 
 sys.path.insert(0, str(FIRMWARE / "tools"))
 import gen_ramp  # noqa: E402

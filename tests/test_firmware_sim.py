@@ -25,7 +25,7 @@ import pytest
 
 import vcd_trace
 from firmware_build import FIRMWARE, host_library, mcu_image, require_s51
-from plotter_bridge.firmware_core import FirmwareCore
+from plotter_bridge.sim.firmware_core import FirmwareCore
 
 sys.path.insert(0, str(FIRMWARE / "tools"))
 import s51sim  # noqa: E402

@@ -204,12 +204,12 @@ def test_bridge_on_one_host_shapes_and_streamer_on_another(tmp_path):
             procs.append(p)
             return p
 
-        start(board_host, "mock_board", "-m", "plotter_bridge.mock_board_node", "--ros-args",
+        start(board_host, "mock_board", "-m", "plotter_bridge.nodes.mock_board", "--ros-args",
               "-p", f"link:={link}", "-p", f"trace:={trace}")
         wait_until(link.exists, 20, "the mock board's pty")
-        start(board_host, "serial_bridge", "-m", "plotter_bridge.serial_bridge_node", "--ros-args",
+        start(board_host, "serial_bridge", "-m", "plotter_bridge.nodes.serial_bridge", "--ros-args",
               "-p", f"port:={link}")
-        start(client_host, "gcode_streamer", "-m", "plotter_bridge.gcode_streamer_node")
+        start(client_host, "gcode_streamer", "-m", "plotter_bridge.nodes.gcode_streamer")
         start(client_host, "shape_server", "-m", "plotter_shapes.shape_server_node")
         before = hosts.traffic(1)
         client = start(client_host, "client", str(TESTS / "remote_client.py"), "--shape", "circle",

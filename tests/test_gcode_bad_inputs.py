@@ -13,8 +13,8 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 import gcode_testlib as lib  # noqa: E402
 from gcode_bad_corpus import CORPUS  # noqa: E402
 
-from plotter_bridge import cli  # noqa: E402
-from plotter_bridge.gcode import (GCodeError, check_limits, load_program, parse,  # noqa: E402
+from plotter_bridge.cli import main as cli  # noqa: E402
+from plotter_bridge.gcode.parser import (GCodeError, check_limits, load_program, parse,  # noqa: E402
                                   to_steps)
 
 LINUXCNC_BAD = sorted((lib.acceptance_dir() / "bad").glob("*.ngc"))

@@ -43,7 +43,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 import gcode_testlib as lib  # noqa: E402
 from gcode_bad_corpus import CORPUS  # noqa: E402
 
-from plotter_bridge import cli  # noqa: E402
+from plotter_bridge.cli import main as cli  # noqa: E402
 
 ACCEPTANCE = lib.acceptance_dir()
 OWN_PROGRAMS = sorted((lib.DATA_DIR / "oracle").glob("*.ngc"))

@@ -15,12 +15,12 @@ import pytest
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 import gcode_testlib  # noqa: E402,F401  (puts plotter_bridge on the path)
 
-from plotter_bridge import cli  # noqa: E402
-from plotter_bridge.gcode import (Dwell, GCodeError, Move, Pause, PenChange,  # noqa: E402
+from plotter_bridge.cli import main as cli  # noqa: E402
+from plotter_bridge.gcode.parser import (Dwell, GCodeError, Move, Pause, PenChange,  # noqa: E402
                                   StepMove, WorkArea, check_limits, moves_of, parse,
                                   to_steps)
-from plotter_bridge.gcode_geometry import arc_sweep  # noqa: E402
-from plotter_bridge.gcode_steps import round_step  # noqa: E402
+from plotter_bridge.gcode.geometry import arc_sweep  # noqa: E402
+from plotter_bridge.gcode.steps import round_step  # noqa: E402
 
 
 def moves(text: str, **kw) -> list:

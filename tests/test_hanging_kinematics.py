@@ -5,8 +5,8 @@ import math
 import pytest
 
 from firmware_build import host_library
-from plotter_bridge.firmware_core import FirmwareCore
-from plotter_bridge.kinematics import HangingGeometry, arc_path, line_path, motor_pieces
+from plotter_bridge.sim.firmware_core import FirmwareCore
+from plotter_bridge.motion.kinematics import HangingGeometry, arc_path, line_path, motor_pieces
 
 GEOMETRY = HangingGeometry()
 

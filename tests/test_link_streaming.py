@@ -7,9 +7,9 @@ import random
 import pytest
 
 from firmware_build import host_library
-from plotter_bridge.firmware_core import FirmwareCore
-from plotter_bridge.link import STATUS_SHARE, WAIT_SHARE, BoardLink
-from plotter_bridge.protocol import (Banner, Err, Ok, Resend, Status, checksum, compact_command, fletcher,
+from plotter_bridge.sim.firmware_core import FirmwareCore
+from plotter_bridge.link.board_link import STATUS_SHARE, WAIT_SHARE, BoardLink
+from plotter_bridge.link.protocol import (Banner, Err, Ok, Resend, Status, checksum, compact_command, fletcher,
                                      machine_line, parse_reply)
 from sim_port import SimPort
 

@@ -5,10 +5,10 @@ ring is full, as on the 8051."""
 import pytest
 
 from firmware_build import host_library
-from plotter_bridge.firmware_core import FirmwareCore
-from plotter_bridge.mock_board import TX_SIZE, MockBoard, MockBoardConfig
-from plotter_bridge.protocol import machine_line
-from plotter_bridge.uart import PacedLine
+from plotter_bridge.sim.firmware_core import FirmwareCore
+from plotter_bridge.sim.mock_board import TX_SIZE, MockBoard, MockBoardConfig
+from plotter_bridge.link.protocol import machine_line
+from plotter_bridge.sim.uart import PacedLine
 
 BYTE_9600 = 10 / 9600
 

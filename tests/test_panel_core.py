@@ -18,8 +18,8 @@ from panel_keys import (JOG, K_CAR, K_CAR_REV, K_CIRCLE, K_CONE, K_DIAG, K_DIAMO
                         K_NO_FUNCTION, K_PAUSE, K_RESET, K_SLOWER, K_STAR, K_XN, K_XP, K_YN, K_YP,
                         assert_on_figure, digit_key, figure_segments)
 from vcd_trace import SEGMENTS
-from plotter_bridge.firmware_core import FirmwareCore
-from plotter_bridge.protocol import (ERROR_TEXT, RT_RESET, RT_STATUS, Banner, Err, Ok, Resend, Status,
+from plotter_bridge.sim.firmware_core import FirmwareCore
+from plotter_bridge.link.protocol import (ERROR_TEXT, RT_RESET, RT_STATUS, Banner, Err, Ok, Resend, Status,
                                      machine_line, parse_reply)
 
 sys.path.insert(0, str(FIRMWARE / "tools"))

@@ -5,7 +5,7 @@ import xml.etree.ElementTree as ET
 
 import pytest
 
-from plotter_bridge.picture import (Area, Run, draw, figure_polylines, mm_to_pixel, program_polylines,
+from plotter_bridge.cli.picture import (Area, Run, draw, figure_polylines, mm_to_pixel, program_polylines,
                                     runs_by_pen, runs_near_path, write_picture)
 
 SVG_NS = "{http://www.w3.org/2000/svg}"

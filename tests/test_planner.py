@@ -5,11 +5,11 @@ import math
 import pytest
 
 from firmware_build import host_library
-from plotter_bridge.commands import BoardCommand
-from plotter_bridge.firmware_core import FirmwareCore
-from plotter_bridge.link import BoardLink
-from plotter_bridge.planner import PlannerLimits, junction_rate, plan
-from plotter_bridge.program import StreamerConfig, compile_program
+from plotter_bridge.motion.commands import BoardCommand
+from plotter_bridge.sim.firmware_core import FirmwareCore
+from plotter_bridge.link.board_link import BoardLink
+from plotter_bridge.motion.planner import PlannerLimits, junction_rate, plan
+from plotter_bridge.motion.compiler import StreamerConfig, compile_program
 from sim_port import SimPort
 
 LIMITS = PlannerLimits(acceleration=80000.0, junction_deviation=4.0)
@@ -93,7 +93,7 @@ def test_board_leaves_each_command_no_faster_than_planned():
     """The firmware's ramp must not climb to a level it cannot brake down from:
     a short line planned to leave at 850 steps/s takes the corner at most one
     ramp level (200 steps/s) faster."""
-    from plotter_bridge.firmware_core import CYCLES_PER_S
+    from plotter_bridge.sim.firmware_core import CYCLES_PER_S
     core = FirmwareCore(host_library())
     assert core.plan_line(160, 0, 8000, 850) == 0
     assert core.plan_line(0, 160, 8000, 0) == 0

@@ -16,7 +16,7 @@ import time
 import pytest
 
 from ros_graph import PlotterGraph, Probe, read_trace, wait_until
-from plotter_bridge.node_processes import read_seq_log
+from node_processes import read_seq_log
 
 pytestmark = pytest.mark.ros
 
@@ -118,7 +118,7 @@ def zigzag(n, y0=60.0, feed=2400):
 
 
 def program_commands(text, start_steps):
-    from plotter_bridge.program import StreamerConfig, compile_program
+    from plotter_bridge.motion.compiler import StreamerConfig, compile_program
     return compile_program(text, StreamerConfig(), start_steps)
 
 
@@ -272,7 +272,7 @@ def test_estop_mid_job_stops_and_nothing_queued_runs_after(graph):
 # --- the streamer dies; the job is resumed from the journal ----------------------------------
 
 def test_streamer_killed_mid_job_then_resumed_from_the_journal(graph):
-    from plotter_bridge.journal import Journal
+    from plotter_bridge.link.journal import Journal
     st = latest(graph)
     start = (st.x_steps, st.y_steps)
     text = zigzag(50, y0=120.0)

@@ -5,10 +5,10 @@ import math
 import pytest
 
 from gcode_bad_corpus import CORPUS
-from plotter_bridge.gcode_types import GCodeError
-from plotter_bridge.journal import (DONE, INTERRUPTED, Journal, JobRecord, Progress, resume_commands,
+from plotter_bridge.gcode.types import GCodeError
+from plotter_bridge.link.journal import (DONE, INTERRUPTED, Journal, JobRecord, Progress, resume_commands,
                                     state_before, travel)
-from plotter_bridge.program import MAX_PROGRAM_BYTES, StreamerConfig, compile_program
+from plotter_bridge.motion.compiler import MAX_PROGRAM_BYTES, StreamerConfig, compile_program
 
 
 # --- the journal ------------------------------------------------------------------------
@@ -71,7 +71,7 @@ def test_journal_round_trip_and_listing(tmp_path):
 
 def test_streamer_request_checks():
     pytest.importorskip("rclpy")
-    from plotter_bridge.gcode_streamer_node import check_request
+    from plotter_bridge.nodes.gcode_streamer import check_request
     assert check_request("G0 X1\n", "ok", "") is None
     assert "too large" in check_request("G0 X1\n" * (MAX_PROGRAM_BYTES // 6 + 1), "p", "")
     assert "name" in check_request("G0 X1", "a\x00b", "")
@@ -82,7 +82,7 @@ def test_streamer_request_checks():
 
 def test_bridge_goal_checks():
     pytest.importorskip("rclpy")
-    from plotter_bridge.serial_bridge_node import validate_goal
+    from plotter_bridge.nodes.serial_bridge import validate_goal
     assert validate_goal(["L 1 2 3 4"], [1], 2.0) is None
     for commands, lines, lease, word in (([], [], 0.0, "empty"), (["L 1 1", "N3 L 1 1 *5"], [], 0.0, "command 2"),
                                          (["\x1b"], [], 0.0, "command 1"), (["$2=9"], [], 0.0, "command 1"),

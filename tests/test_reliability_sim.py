@@ -7,7 +7,7 @@ numbers it started (FirmwareCore.seq_log): every one exactly once, in order.
 import pytest
 
 from firmware_build import host_library
-from plotter_bridge.faults import FaultSpec, FaultyChannel, parse_faults
+from plotter_bridge.sim.faults import FaultSpec, FaultyChannel, parse_faults
 from reliability_sim import SimRig, fault_run, random_job
 
 

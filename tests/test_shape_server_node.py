@@ -20,7 +20,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parent.parent / "ros_ws" / "src"
 
 import pytest  # noqa: E402
 
-from plotter_bridge import node_processes  # noqa: E402
+import node_processes  # noqa: E402
 from plotter_shapes.geometry import goal_program  # noqa: E402
 
 pytestmark = pytest.mark.ros

@@ -1,4 +1,4 @@
-"""The bridge's RViz topics (path, planned_path, pen, ink) and /diagnostics (plotter_bridge.telemetry)."""
+"""The bridge's RViz topics (path, planned_path, pen, ink) and /diagnostics (plotter_bridge.nodes.telemetry)."""
 import math
 import random
 import threading
@@ -6,11 +6,11 @@ import time
 
 import pytest
 
-from plotter_bridge.link import LinkStats
-from plotter_bridge.gcode_limits import WorkArea
-from plotter_bridge.kinematics import Machine
-from plotter_bridge.program import StreamerConfig, compile_program
-from plotter_bridge.telemetry import (ERROR, OK, STALE, WARN, BridgeSnapshot, LinkCounters, Sample,
+from plotter_bridge.link.board_link import LinkStats
+from plotter_bridge.gcode.limits import WorkArea
+from plotter_bridge.motion.kinematics import Machine
+from plotter_bridge.motion.compiler import StreamerConfig, compile_program
+from plotter_bridge.nodes.telemetry import (ERROR, OK, STALE, WARN, BridgeSnapshot, LinkCounters, Sample,
                                       diagnose_board, diagnose_link, ink_segments, planned_pen_points,
                                       planned_points, step_rate, thin)
 

@@ -1,11 +1,11 @@
-"""SVG drawings and Hershey text to programs (plotter_bridge.svg_input, text_input; `plotter svg`, `plotter text`)."""
+"""SVG drawings and Hershey text to programs (plotter_shapes.svg_input, text_input; `plotter svg`, `plotter text`)."""
 import math
 
 import pytest
 
-from plotter_bridge.gcode import moves_of, parse
-from plotter_bridge.svg_input import Placement, VectorError, svg_program
-from plotter_bridge.text_input import text_program
+from plotter_bridge.gcode.parser import moves_of, parse
+from plotter_shapes.svg_input import Placement, VectorError, svg_program
+from plotter_shapes.text_input import text_program
 
 # 100 x 60 mm (viewBox units are mm): a line, a circle, a cubic curve, and a path with a line, an arc, a line.
 SVG = """<svg xmlns="http://www.w3.org/2000/svg" width="100mm" height="60mm" viewBox="0 0 100 60">

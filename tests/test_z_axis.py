@@ -9,15 +9,15 @@ import json
 import pytest
 
 from firmware_build import host_library
-from plotter_bridge import cli
-from plotter_bridge.commands import MAX_DELTA
-from plotter_bridge.firmware_core import FirmwareCore
-from plotter_bridge.gcode import GCodeError, Move, PenChange, ZMove, parse
-from plotter_bridge.gcode_limits import WorkArea
-from plotter_bridge.journal import JobRecord, resume_commands
-from plotter_bridge.kinematics import Machine
-from plotter_bridge.program import StreamerConfig, compile_program
-from plotter_bridge.protocol import Status, checksum, parse_reply
+from plotter_bridge.cli import main as cli
+from plotter_bridge.motion.commands import MAX_DELTA
+from plotter_bridge.sim.firmware_core import FirmwareCore
+from plotter_bridge.gcode.parser import GCodeError, Move, PenChange, ZMove, parse
+from plotter_bridge.gcode.limits import WorkArea
+from plotter_bridge.link.journal import JobRecord, resume_commands
+from plotter_bridge.motion.kinematics import Machine
+from plotter_bridge.motion.compiler import StreamerConfig, compile_program
+from plotter_bridge.link.protocol import Status, checksum, parse_reply
 
 AXIS = StreamerConfig(z_mode="axis")       # 80 steps/mm in X and Y, 400 in Z
 PROGRAM = "G21 G90\nG0 X10 Y0 Z2\nG1 Z-0.5 F300\nG1 X20 F1200\nG0 Z2\nM2\n"

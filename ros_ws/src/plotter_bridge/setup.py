@@ -1,11 +1,11 @@
-from setuptools import setup
+from setuptools import find_packages, setup
 
 package_name = 'plotter_bridge'
 
 setup(
     name=package_name,
     version='0.1.0',
-    packages=[package_name],
+    packages=find_packages(include=[package_name, package_name + '.*']),
     data_files=[
         ('share/ament_index/resource_index/packages', ['resource/' + package_name]),
         ('share/' + package_name, ['package.xml']),
@@ -20,10 +20,10 @@ setup(
     license='MIT',
     entry_points={
         'console_scripts': [
-            'serial_bridge = plotter_bridge.serial_bridge_node:main',
-            'gcode_streamer = plotter_bridge.gcode_streamer_node:main',
-            'mock_board = plotter_bridge.mock_board_node:main',
-            'plotter = plotter_bridge.cli:main',
+            'serial_bridge = plotter_bridge.nodes.serial_bridge:main',
+            'gcode_streamer = plotter_bridge.nodes.gcode_streamer:main',
+            'mock_board = plotter_bridge.nodes.mock_board:main',
+            'plotter = plotter_bridge.cli.main:main',
         ],
     },
 )

@@ -5,7 +5,7 @@ from typing import List
 
 import numpy as np
 
-from .svg_input import Drawing, Placement, VectorError, drawing_program
+from plotter_shapes.svg_input import Drawing, Placement, VectorError, drawing_program
 
 DEFAULT_FONT = "futural"
 

@@ -7,7 +7,7 @@ the table) without changing ``main``.
 
 ``plotter check FILE`` validates a G-code program without moving anything and
 prints the moves it would make, like grbl's check mode (``--z-axis``: G-code Z
-as a third axis, see gcode.py).
+as a third axis, see gcode/parser.py).
 """
 
 from __future__ import annotations
@@ -19,13 +19,13 @@ import sys
 from dataclasses import dataclass
 from typing import Callable, Dict, List, Optional, Sequence, TextIO
 
-from .gcode import DEFAULT_RAPID_RATE, GCodeError, Item, Move, load_program
-from .gcode_steps import round_step
-from .kinematics import DEFAULT_Z_STEPS_PER_MM
-from .gcode_types import Dwell, Pause, PenChange, ZMove
-from .gcode_geometry import arc_length
-from .gcode_limits import WorkArea, check_limits
-from .gcode_steps import to_steps
+from plotter_bridge.gcode.parser import DEFAULT_RAPID_RATE, GCodeError, Item, Move, load_program
+from plotter_bridge.gcode.steps import round_step
+from plotter_bridge.motion.kinematics import DEFAULT_Z_STEPS_PER_MM
+from plotter_bridge.gcode.types import Dwell, Pause, PenChange, ZMove
+from plotter_bridge.gcode.geometry import arc_length
+from plotter_bridge.gcode.limits import WorkArea, check_limits
+from plotter_bridge.gcode.steps import to_steps
 
 EXIT_OK = 0
 EXIT_BAD_PROGRAM = 2
@@ -210,7 +210,7 @@ def build_parser(commands: Optional[Dict[str, Command]] = None) -> argparse.Argu
 
 
 def main(argv: Optional[Sequence[str]] = None) -> int:
-    from . import cli_run  # noqa: F401  (registers stream, draw, watch)
+    from . import run  # noqa: F401  (registers stream, draw, watch)
     parser = build_parser()
     try:
         args = parser.parse_args(argv)

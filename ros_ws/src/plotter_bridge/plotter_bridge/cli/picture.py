@@ -88,7 +88,7 @@ def figure_polylines(figure) -> List[Polyline]:
 
 def program_polylines(text: str, start: Point = (0.0, 0.0)) -> List[Polyline]:
     """The pen-down moves of a G-code program, as continuous polylines (mm)."""
-    from .gcode import parse, moves_of
+    from plotter_bridge.gcode.parser import parse, moves_of
     out: List[Polyline] = []
     end: Optional[Point] = None
     for m in moves_of(parse(text, start=start)):

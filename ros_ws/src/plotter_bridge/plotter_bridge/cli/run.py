@@ -15,9 +15,9 @@ import time
 from pathlib import Path
 from typing import List, TextIO
 
-from .cli import EXIT_BAD_PROGRAM, EXIT_OK, Command, register
-from .gcode_types import GCodeError
-from .kinematics import DEFAULT_Z_STEPS_PER_MM
+from .main import EXIT_BAD_PROGRAM, EXIT_OK, Command, register
+from plotter_bridge.gcode.types import GCodeError
+from plotter_bridge.motion.kinematics import DEFAULT_Z_STEPS_PER_MM
 
 EXIT_FAILED = 1
 HANGING_AREA = (0.0, 800.0, 0.0, 1000.0)   # seed 003's board below its pulleys, mm
@@ -61,8 +61,8 @@ def _connection_args(p: argparse.ArgumentParser) -> None:
 
 def _graph_options(args: argparse.Namespace):
     """GraphOptions from the connection arguments; ValueError for bad ones."""
-    from .faults import parse_faults
-    from .local_graph import GraphOptions
+    from plotter_bridge.sim.faults import parse_faults
+    from plotter_bridge.nodes.local_graph import GraphOptions
     faults = parse_faults(args.faults)
     if (args.faults or args.seq_log) and not args.mock:
         raise ValueError("--faults and --seq-log need --mock")
@@ -150,7 +150,7 @@ def write_pictures(args: argparse.Namespace, text: str, name: str, start: tuple,
     from .picture import program_polylines, runs_by_pen, runs_near_path, write_picture
     programmed = program_polylines(text, start) if text else []
     if trace_path:
-        from .node_processes import read_trace
+        from plotter_bridge.sim.trace import read_trace
         spm = args.steps_per_mm
         runs = runs_near_path(((x / spm, y / spm) for _, x, y in read_trace(Path(trace_path))), programmed)
     else:
@@ -163,7 +163,7 @@ def write_pictures(args: argparse.Namespace, text: str, name: str, start: tuple,
 
 def run_program_text(text: str, name: str, args: argparse.Namespace,
                      out: TextIO = sys.stdout, err: TextIO = sys.stderr) -> int:
-    from .gcode import parse
+    from plotter_bridge.gcode.parser import parse
     resume_id = getattr(args, "resume_id", "")
     try:
         if not resume_id:
@@ -178,7 +178,7 @@ def run_program_text(text: str, name: str, args: argparse.Namespace,
         err.write("--svg takes an .svg file, --png a .png file\n")
         return EXIT_BAD_PROGRAM
     from dataclasses import replace
-    from .local_graph import LocalGraph
+    from plotter_bridge.nodes.local_graph import LocalGraph
     try:
         options = _graph_options(args)
     except ValueError as exc:
@@ -226,7 +226,7 @@ def run_stream(args: argparse.Namespace) -> int:
     except OSError as exc:
         sys.stderr.write(f"{args.file}: {exc.strerror}\n")
         return EXIT_BAD_PROGRAM
-    from .gcode import decode_program
+    from plotter_bridge.gcode.parser import decode_program
     try:
         text = decode_program(data)
     except GCodeError as exc:
@@ -299,7 +299,7 @@ def _configure_jobs(p: argparse.ArgumentParser) -> None:
 
 
 def run_jobs(args: argparse.Namespace, out: TextIO = sys.stdout) -> int:
-    from .journal import Journal, default_journal_dir
+    from plotter_bridge.link.journal import Journal, default_journal_dir
     journal = Journal(args.journal or default_journal_dir())
     for job_id, prog, mtime in journal.jobs():
         record, _ = journal.load(job_id)
@@ -373,7 +373,7 @@ def _drawing_args(p: argparse.ArgumentParser, what: str) -> None:
 
 def _run_drawing(make_program, name: str, args: argparse.Namespace) -> int:
     from plotter_shapes.geometry import ShapeError
-    from .svg_input import VectorError
+    from plotter_shapes.svg_input import VectorError
     try:
         lines = make_program()
     except (VectorError, ShapeError) as exc:
@@ -391,7 +391,7 @@ def _configure_svg(p: argparse.ArgumentParser) -> None:
 
 
 def run_svg(args: argparse.Namespace) -> int:
-    from .svg_input import Placement, svg_program
+    from plotter_shapes.svg_input import Placement, svg_program
     if not Path(args.file).is_file():
         sys.stderr.write(f"{args.file}: no such file\n")
         return EXIT_BAD_PROGRAM
@@ -403,7 +403,7 @@ register(Command("svg", "plot an SVG drawing (circles and arcs as arcs, curves a
 
 
 def _configure_text(p: argparse.ArgumentParser) -> None:
-    from .text_input import DEFAULT_FONT
+    from plotter_shapes.text_input import DEFAULT_FONT
     p.add_argument("text", help="one line of text")
     p.add_argument("--font", default=DEFAULT_FONT, help=f"Hershey font (default {DEFAULT_FONT})")
     p.add_argument("--size", type=float, default=10.0, metavar="MM", help="font size (default 10)")
@@ -411,8 +411,8 @@ def _configure_text(p: argparse.ArgumentParser) -> None:
 
 
 def run_text(args: argparse.Namespace) -> int:
-    from .svg_input import Placement
-    from .text_input import text_program
+    from plotter_shapes.svg_input import Placement
+    from plotter_shapes.text_input import text_program
     placement = Placement(args.width, (args.x, args.y))
     return _run_drawing(lambda: text_program(args.text, args.font, args.size, placement, args.feed, args.optimize),
                         args.text, args)

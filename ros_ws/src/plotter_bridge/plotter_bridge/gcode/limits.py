@@ -5,8 +5,8 @@ from __future__ import annotations
 from dataclasses import dataclass
 from typing import Iterable
 
-from .gcode_types import GCodeError, Item, Move, ZMove
-from .gcode_geometry import arc_extreme_points
+from .types import GCodeError, Item, Move, ZMove
+from .geometry import arc_extreme_points
 
 # Points this close outside the area (mm) still count as inside: rounding noise.
 LIMIT_EPSILON = 1e-9

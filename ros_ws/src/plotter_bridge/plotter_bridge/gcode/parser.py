@@ -35,7 +35,7 @@ with a GCodeError naming its physical line. Rejected as well: other letters,
 G and M codes, words without a number, numbers without a letter, a letter
 twice on a line (G excepted), two G codes of one modal group, non-ASCII or
 control characters, lines over 256 characters, a program without moves, and
-arcs LinuxCNC refuses (see gcode_geometry).
+arcs LinuxCNC refuses (see geometry.py).
 """
 
 from __future__ import annotations
@@ -45,11 +45,11 @@ import re
 from dataclasses import dataclass, field
 from typing import Tuple, Dict, List, Optional
 
-from . import gcode_geometry as geometry
-from .gcode_types import (PEN_DOWN, PEN_UP, Dwell, GCodeError, Item, Move, Pause,
+from . import geometry
+from .types import (PEN_DOWN, PEN_UP, Dwell, GCodeError, Item, Move, Pause,
                           PenChange, ZMove)
-from .gcode_limits import WorkArea, check_limits
-from .gcode_steps import StepMove, to_steps
+from .limits import WorkArea, check_limits
+from .steps import StepMove, to_steps
 
 __all__ = ["GCodeError", "Move", "ZMove", "Dwell", "PenChange", "Pause", "Item", "WorkArea",
            "StepMove", "check_limits", "to_steps", "parse", "decode_program",

@@ -32,8 +32,8 @@ import math
 from dataclasses import dataclass
 from typing import Iterable, List, Optional, Tuple, Union
 
-from .gcode_types import Dwell, Item, Move, Pause, PenChange
-from .gcode_geometry import Point, arc_midpoint, arc_sweep
+from .types import Dwell, Item, Move, Pause, PenChange
+from .geometry import Point, arc_midpoint, arc_sweep
 
 
 @dataclass(frozen=True)

@@ -30,7 +30,7 @@ import time
 from dataclasses import dataclass
 from typing import Callable, List, Optional
 
-from .link import BoardLink, Command, Port
+from .board_link import BoardLink, Command, Port
 from .protocol import RT_ESTOP, RT_HOLD, RT_RESET, RT_RESUME, SEQ_MOD, Err, Status
 
 QUEUE_SIZE = 6
@@ -41,7 +41,7 @@ DISCONNECTED, CONNECTING, CONNECTED = "disconnected", "connecting", "connected"
 class SessionConfig:
     ack_timeout: float = 0.5          # seconds before unacknowledged lines are sent again
     status_interval: float = 0.04     # '?' polling period
-    baud: int = 0                     # the line's baud rate: polling is held to a share of it (link.py)
+    baud: int = 0                     # the line's baud rate: polling is held to a share of it (board_link.py)
     reconnect_timeout: float = 30.0   # a job waits this long for a vanished port
     backoff_min: float = 0.1          # first wait before opening the port again
     backoff_max: float = 2.0

@@ -1,4 +1,4 @@
-"""From step moves (gcode_steps) to commands of the firmware protocol.
+"""From step moves (gcode/steps.py) to commands of the firmware protocol.
 
 The firmware's feed is in steps per second, and point-by-point interpolation
 moves one axis at a time, so a path of length s mm drawn as n steps needs
@@ -15,8 +15,8 @@ import math
 from dataclasses import dataclass
 from typing import Callable, Iterable, List, Optional, Tuple
 
-from .gcode_steps import StepMove, round_step
-from .gcode_types import Dwell, Pause, PenChange, ZMove
+from plotter_bridge.gcode.steps import StepMove, round_step
+from plotter_bridge.gcode.types import Dwell, Pause, PenChange, ZMove
 
 MAX_DELTA = 32767          # the firmware's coordinate range per command
 MIN_RATE = 15              # steps/s: the firmware's slowest feed

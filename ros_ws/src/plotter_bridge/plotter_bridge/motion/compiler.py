@@ -9,10 +9,10 @@ from dataclasses import dataclass
 from typing import List, Tuple
 
 from .commands import FIRMWARE_ACCEL, BoardCommand, cartesian_motion, to_commands, z_axis_motion
-from .gcode import load_program
-from .gcode_limits import WorkArea, check_limits
-from .gcode_steps import to_steps
-from .gcode_types import GCodeError
+from plotter_bridge.gcode.parser import load_program
+from plotter_bridge.gcode.limits import WorkArea, check_limits
+from plotter_bridge.gcode.steps import to_steps
+from plotter_bridge.gcode.types import GCodeError
 from .kinematics import DEFAULT_Z_STEPS_PER_MM, HangingGeometry, check_z, hanging_motion
 from .planner import PlannerLimits, cap_for_link, plan
 

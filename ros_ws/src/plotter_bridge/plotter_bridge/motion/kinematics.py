@@ -160,7 +160,7 @@ def arc_path(p0: Point, p1: Point, centre: Point, cw: bool) -> Callable[[float],
 
 def hanging_motion(geometry: HangingGeometry, tolerance: float):
     """A motion converter (commands.to_commands) for the hanging machine:
-    each programmed move (gcode_types.Move, mm) becomes straight board lines
+    each programmed move (gcode.types.Move, mm) becomes straight board lines
     between motor positions rounded once, absolutely, so errors never add up."""
     from .commands import MAX_DELTA, straight
 

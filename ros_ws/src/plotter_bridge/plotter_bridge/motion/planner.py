@@ -25,7 +25,7 @@ from dataclasses import dataclass
 from typing import List, Optional, Sequence, Tuple
 
 from .commands import BoardCommand, MIN_RATE
-from .protocol import SEQ_MOD, compact_command
+from plotter_bridge.link.protocol import SEQ_MOD, compact_command
 
 
 @dataclass(frozen=True)

@@ -7,7 +7,7 @@ work area completely before anything moves; then it is converted to board
 commands and streamed through the serial bridge's `stream_commands` action,
 which keeps the board's queue full.
 
-Every job is journalled (journal.py, parameter `journal_dir`) before it is
+Every job is journalled (link/journal.py, parameter `journal_dir`) before it is
 sent, with the board's progress as the bridge reports it.  The streamer
 renews the job's lease on `job_lease` while it runs; if the streamer dies the
 lease runs out and the bridge stops the job at a command boundary.  A
@@ -16,7 +16,7 @@ then finishes it from the first command not completed.
 
 With `z_mode:=axis` (a machine with a third axis, firmware ZAXIS=1) G-code Z
 moves that axis, from where the board reports it, inside `z_min`..`z_max`
-(gcode.py says in which order with X and Y); `z_mode:=pen`, the default,
+(gcode/parser.py says in which order with X and Y); `z_mode:=pen`, the default,
 keeps Z for the pen.
 
 Inputs are checked before anything moves: an oversized or malformed program,
@@ -47,15 +47,15 @@ from action_msgs.msg import GoalStatus
 from rclpy.action.client import ClientGoalHandle
 from unique_identifier_msgs.msg import UUID
 
-from .node_main import run_node
-from .commands import MAX_RATE
-from .gcode_limits import WorkArea
-from .gcode_types import GCodeError
-from .journal import (DONE, INTERRUPTED, RUNNING, Journal, JobRecord, Progress, default_journal_dir,
+from .main import run_node
+from plotter_bridge.motion.commands import MAX_RATE
+from plotter_bridge.gcode.limits import WorkArea
+from plotter_bridge.gcode.types import GCodeError
+from plotter_bridge.link.journal import (DONE, INTERRUPTED, RUNNING, Journal, JobRecord, Progress, default_journal_dir,
                       resume_commands)
-from .machine_params import declare_machine
-from .planner import link_baud
-from .program import MAX_PROGRAM_BYTES, StreamerConfig, compile_program
+from .params import declare_machine
+from plotter_bridge.motion.planner import link_baud
+from plotter_bridge.motion.compiler import MAX_PROGRAM_BYTES, StreamerConfig, compile_program
 
 DEFAULT_NAMESPACE = "/plotter"   # `-r __ns:=/plotter2` runs a second plotter beside it
 MAX_NAME_LEN = 200

@@ -2,12 +2,12 @@
 
 Creates a pseudo-terminal, prints its path and publishes it on `mock_port`
 (std_msgs/String, transient local); behind it the firmware's own core runs in
-real time (see mock_board.py).  Parameters: `link` (also make a symlink to
+real time (see sim/mock_board.py).  Parameters: `link` (also make a symlink to
 the pty there, so a bridge can be started with port:=<link>), `trace` (CSV
 of every step), `seq_log` (file of the sequence numbers of the commands the
 board started), `baud` (byte rate of the simulated UART), `faults` (faults on
 the serial line and board events, e.g. `drop=0.01,corrupt=0.01,dup=0.001,
-unplug_at=4000,unplug_for=2,reset_at=9000`; see faults.py).
+unplug_at=4000,unplug_for=2,reset_at=9000`; see sim/faults.py).
 
 Services `~/unplug` (the pty vanishes for `unplug_for` seconds and comes back
 at the same link path) and `~/power_cycle` (the board resets) simulate the
@@ -21,10 +21,10 @@ from rcl_interfaces.msg import ParameterDescriptor
 from std_msgs.msg import String
 from std_srvs.srv import Trigger
 
-from .node_main import run_node
-from .faults import parse_faults
-from .machine_params import declare_machine
-from .mock_board import MockBoard, MockBoardConfig
+from .main import run_node
+from plotter_bridge.sim.faults import parse_faults
+from .params import declare_machine
+from plotter_bridge.sim.mock_board import MockBoard, MockBoardConfig
 
 DEFAULT_NAMESPACE = "/plotter"
 

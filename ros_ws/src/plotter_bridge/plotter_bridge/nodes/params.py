@@ -6,7 +6,7 @@ import math
 
 from rcl_interfaces.msg import ParameterDescriptor
 
-from .kinematics import DEFAULT_Z_STEPS_PER_MM, MACHINES, HangingGeometry, Machine
+from plotter_bridge.motion.kinematics import DEFAULT_Z_STEPS_PER_MM, MACHINES, HangingGeometry, Machine
 
 _DEFAULT = HangingGeometry()
 

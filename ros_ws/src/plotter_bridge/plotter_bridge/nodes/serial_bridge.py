@@ -7,12 +7,12 @@ board's status reports; offers `estop`, `hold`, `resume`, `reset` and
 `set_origin` (std_srvs/Trigger); serves `stream_commands`
 (plotter_interfaces/action/StreamCommands) to run a job of board commands.
 
-A background thread pumps the board session (board_session.py: the link,
+A background thread pumps the board session (link/board_session.py: the link,
 reconnection, reset detection, confirmed real-time bytes) so that streaming
 never waits on the ROS executor; ROS callbacks talk to it under its lock.
 When the port vanishes the state is DISCONNECTED and the port is opened
 again with back-off; a job goes on from where the board is, or is aborted
-with the reason (see board_session.py).
+with the reason (see link/board_session.py).
 """
 from __future__ import annotations
 
@@ -35,10 +35,10 @@ from std_srvs.srv import Trigger
 from plotter_interfaces.action import StreamCommands
 from plotter_interfaces.msg import BoardState
 
-from .node_main import run_node
-from .machine_params import declare_machine
-from .board_session import DISCONNECTED, QUEUE_SIZE, BoardSession, Job, SessionConfig
-from .protocol import Status
+from .main import run_node
+from .params import declare_machine
+from plotter_bridge.link.board_session import DISCONNECTED, QUEUE_SIZE, BoardSession, Job, SessionConfig
+from plotter_bridge.link.protocol import Status
 from .telemetry import BridgeTelemetry
 
 STATE_CODES = {"Idle": BoardState.IDLE, "Run": BoardState.RUNNING,
@@ -100,7 +100,7 @@ class SerialBridge(Node):
         self.declare_parameter("baud", 115200, d(description="baud rate"))
         self.declare_parameter("status_hz", 25.0, d(description="status polls per second (position topic rate); "
                                                          "at most what 5 % of the link's bytes carry while "
-                                                         "commands wait to be sent (link.py STATUS_SHARE)"))
+                                                         "commands wait to be sent (link/board_link.py STATUS_SHARE)"))
         self.declare_parameter("ack_timeout", 0.5, d(description="seconds without acknowledgement before resending"))
         self.declare_parameter("reconnect_timeout", 30.0, d(description="seconds a job waits for a vanished port before it is aborted"))
         self.declare_parameter("frame_id", "plotter", d(description="frame of the position topic"))

@@ -164,7 +164,7 @@ class LinkCounters:
 
     @staticmethod
     def of(stats) -> "LinkCounters":
-        """From link.LinkStats (or anything with the same fields)."""
+        """From board_link.LinkStats (or anything with the same fields)."""
         return LinkCounters(**{k: int(getattr(stats, k, 0)) for k in LinkCounters.__dataclass_fields__})
 
     @property

@@ -20,7 +20,7 @@ while, the core running on meanwhile; `power_cycle()` resets the core
 (banner, position 0, queue empty).  Both also fire after a number of steps
 (`unplug_at`, `reset_at`).
 
-No ROS here: mock_board_node.py wraps it as a node, `plotter --mock` runs
+No ROS here: nodes/mock_board.py wraps it as a node, `plotter --mock` runs
 it in a thread.
 """
 from __future__ import annotations
@@ -37,7 +37,7 @@ from typing import IO, Optional
 
 from .faults import FaultCounts, FaultSpec, FaultyChannel
 from .firmware_core import CYCLES_PER_S, FirmwareCore, find_library
-from .kinematics import Machine
+from plotter_bridge.motion.kinematics import Machine
 from .uart import PacedLine
 
 TX_SIZE = 16          # firmware core/config.h: the transmit ring

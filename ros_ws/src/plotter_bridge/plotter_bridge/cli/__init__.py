@@ -1,0 +1,1 @@
+"""The plotter command line and the pictures it draws (see docs/architecture.md)."""
