@@ -21,7 +21,7 @@ from dataclasses import asdict, dataclass, field
 from pathlib import Path
 from typing import List, Optional, Tuple
 
-from plotter_bridge.motion.commands import MAX_DELTA, MAX_RATE, MIN_RATE
+from .protocol import MAX_DELTA, MAX_RATE, MIN_RATE
 
 RUNNING, DONE, INTERRUPTED = "running", "done", "interrupted"
 _ID = re.compile(r"^[0-9a-f]{32}$")

@@ -12,6 +12,12 @@ from typing import Optional, Union
 SEQ_MOD = 1 << 16
 BANNER_PREFIX = "PLOTTER 8051"
 
+# What the firmware accepts in a motion command (PROTOCOL.md, commands and settings).
+MAX_DELTA = 32767          # the firmware's coordinate range per command
+MIN_RATE = 15              # steps/s: the firmware's slowest feed
+MAX_RATE = 12850           # steps/s: the top of the firmware's ramp table ($I field T)
+FIRMWARE_ACCEL = 100000    # steps/s^2: the firmware's ramp at divisor $0=1 ($I field A)
+
 RT_STATUS = b"?"
 RT_HOLD = b"!"
 RT_RESUME = b"~"

@@ -17,11 +17,8 @@ from typing import Callable, Iterable, List, Optional, Tuple
 
 from plotter_bridge.gcode.steps import StepMove, round_step
 from plotter_bridge.gcode.types import Dwell, Pause, PenChange, ZMove
+from plotter_bridge.link.protocol import FIRMWARE_ACCEL, MAX_DELTA, MAX_RATE, MIN_RATE  # noqa: F401
 
-MAX_DELTA = 32767          # the firmware's coordinate range per command
-MIN_RATE = 15              # steps/s: the firmware's slowest feed
-MAX_RATE = 12850           # steps/s: the top of the firmware's ramp table ($I field T)
-FIRMWARE_ACCEL = 100000    # steps/s^2: the firmware's ramp at divisor $0=1 ($I field A)
 
 
 Vec = Tuple[float, float]

@@ -48,9 +48,9 @@ from rclpy.action.client import ClientGoalHandle
 from unique_identifier_msgs.msg import UUID
 
 from .main import run_node
-from plotter_bridge.motion.commands import MAX_RATE
 from plotter_bridge.gcode.limits import WorkArea
 from plotter_bridge.gcode.types import GCodeError
+from plotter_bridge.link.protocol import MAX_RATE
 from plotter_bridge.link.journal import (DONE, INTERRUPTED, RUNNING, Journal, JobRecord, Progress, default_journal_dir,
                       resume_commands)
 from .params import declare_machine
