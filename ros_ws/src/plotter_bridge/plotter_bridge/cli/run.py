@@ -15,11 +15,11 @@ import time
 from pathlib import Path
 from typing import List, TextIO
 
-from .main import EXIT_BAD_PROGRAM, EXIT_OK, Command, register
 from plotter_bridge.gcode.types import GCodeError
 from plotter_bridge.motion.kinematics import DEFAULT_Z_STEPS_PER_MM
 
-EXIT_FAILED = 1
+from .command import EXIT_BAD_PROGRAM, EXIT_FAILED, EXIT_OK, Command
+
 HANGING_AREA = (0.0, 800.0, 0.0, 1000.0)   # seed 003's board below its pulleys, mm
 DEFAULT_FEED = 1500.0      # mm/min for shapes drawn without --feed
 
@@ -235,8 +235,8 @@ def run_stream(args: argparse.Namespace) -> int:
     return run_program_text(text, args.file, args)
 
 
-register(Command("stream", "stream a G-code program to the board (or a mock board) and wait for it",
-                 _configure_stream, run_stream))
+_STREAM = Command("stream", "stream a G-code program to the board (or a mock board) and wait for it",
+                  _configure_stream, run_stream)
 
 
 # ---------------------------------------------------------------- draw
@@ -275,7 +275,7 @@ def run_draw(args: argparse.Namespace) -> int:
     return run_program_text("\n".join(lines) + "\n", args.shape, args)
 
 
-register(Command("draw", "draw one of the built-in shapes", _configure_draw, run_draw))
+_DRAW = Command("draw", "draw one of the built-in shapes", _configure_draw, run_draw)
 
 
 # ---------------------------------------------------------------- resume, jobs
@@ -289,8 +289,8 @@ def run_resume(args: argparse.Namespace) -> int:
     return run_program_text("", f"job {args.resume_id}", args)
 
 
-register(Command("resume", "finish an interrupted job from its last completed line (from the journal)",
-                 _configure_resume, run_resume))
+_RESUME = Command("resume", "finish an interrupted job from its last completed line (from the journal)",
+                  _configure_resume, run_resume)
 
 
 def _configure_jobs(p: argparse.ArgumentParser) -> None:
@@ -310,7 +310,7 @@ def run_jobs(args: argparse.Namespace, out: TextIO = sys.stdout) -> int:
     return EXIT_OK
 
 
-register(Command("jobs", "list the journalled jobs, newest first", _configure_jobs, run_jobs))
+_JOBS = Command("jobs", "list the journalled jobs, newest first", _configure_jobs, run_jobs)
 
 
 # ---------------------------------------------------------------- watch
@@ -352,8 +352,8 @@ def run_watch(args: argparse.Namespace, out: TextIO = sys.stdout) -> int:
     return EXIT_OK if (seen[0] or not args.count) else EXIT_FAILED
 
 
-register(Command("watch", "print live positions (like ros2 topic echo /plotter/position)",
-                 _configure_watch, run_watch))
+_WATCH = Command("watch", "print live positions (like ros2 topic echo /plotter/position)",
+                  _configure_watch, run_watch)
 
 
 # ---------------------------------------------------------------- svg and text
@@ -399,7 +399,7 @@ def run_svg(args: argparse.Namespace) -> int:
     return _run_drawing(lambda: svg_program(args.file, placement, args.feed, args.optimize), args.file, args)
 
 
-register(Command("svg", "plot an SVG drawing (circles and arcs as arcs, curves as lines)", _configure_svg, run_svg))
+_SVG = Command("svg", "plot an SVG drawing (circles and arcs as arcs, curves as lines)", _configure_svg, run_svg)
 
 
 def _configure_text(p: argparse.ArgumentParser) -> None:
@@ -418,4 +418,7 @@ def run_text(args: argparse.Namespace) -> int:
                         args.text, args)
 
 
-register(Command("text", "write text in a Hershey font", _configure_text, run_text))
+_TEXT = Command("text", "write text in a Hershey font", _configure_text, run_text)
+
+
+COMMANDS = (_STREAM, _DRAW, _RESUME, _JOBS, _WATCH, _SVG, _TEXT)

@@ -1,0 +1,166 @@
+"""``plotter check FILE``: validates a G-code program without moving anything
+and prints the moves it would make, like grbl's check mode (``--z-axis``:
+G-code Z as a third axis, see gcode/parser.py).  No ROS.
+"""
+from __future__ import annotations
+
+import argparse
+import json
+import math
+import sys
+from typing import List, TextIO
+
+from plotter_bridge.gcode.geometry import arc_length
+from plotter_bridge.gcode.limits import WorkArea, check_limits
+from plotter_bridge.gcode.parser import DEFAULT_RAPID_RATE, GCodeError, Item, Move, load_program
+from plotter_bridge.gcode.steps import round_step, to_steps
+from plotter_bridge.gcode.types import Dwell, Pause, PenChange, ZMove
+from plotter_bridge.motion.kinematics import DEFAULT_Z_STEPS_PER_MM
+
+from .command import EXIT_BAD_PROGRAM, EXIT_OK, Command
+
+
+def _configure_check(p: argparse.ArgumentParser) -> None:
+    p.add_argument("file", metavar="FILE.gcode", help="G-code program to check")
+    p.add_argument("--json", action="store_true",
+                   help="one JSON object per move and line (machine mm)")
+    p.add_argument("--steps-per-mm", type=float, default=80.0, metavar="N",
+                   help="motor steps per mm, for the step counts (default 80)")
+    p.add_argument("--rapid-rate", type=float, default=DEFAULT_RAPID_RATE,
+                   metavar="MM_PER_MIN",
+                   help=f"feed of G0 moves (default {DEFAULT_RAPID_RATE:g} mm/min)")
+    p.add_argument("--z-axis", action="store_true",
+                   help="G-code Z moves a third axis (firmware ZAXIS=1), not the pen")
+    p.add_argument("--z-steps-per-mm", type=float, default=DEFAULT_Z_STEPS_PER_MM, metavar="N",
+                   help=f"with --z-axis: steps per mm of Z (default {DEFAULT_Z_STEPS_PER_MM:g})")
+    defaults = WorkArea()
+    for name in ("x_min", "x_max", "y_min", "y_max", "z_min", "z_max"):
+        p.add_argument("--" + name.replace("_", "-"), type=float,
+                       default=getattr(defaults, name), metavar="MM",
+                       help=f"work area limit (default {getattr(defaults, name):g})")
+    p.add_argument("--no-limits", action="store_true",
+                   help="do not check the moves against the work area")
+
+
+def _number(value: float) -> float:
+    value = round(value, 6)
+    return 0.0 if value == 0.0 else value
+
+
+def move_record(move: Move) -> dict:
+    """The JSON object of one move (see ``plotter check --json``)."""
+    record = {"line": move.line, "type": move.kind, "x": _number(move.x),
+              "y": _number(move.y)}
+    if move.kind == "arc":
+        record.update(cx=_number(move.cx), cy=_number(move.cy), cw=bool(move.cw))
+    record.update(feed=_number(move.feed), pen=move.pen)
+    return record
+
+
+def z_record(move: ZMove) -> dict:
+    """The JSON object of one Z move (``plotter check --z-axis --json``)."""
+    return {"line": move.line, "type": "z", "z": _number(move.z), "feed": _number(move.feed),
+            "rapid": move.rapid}
+
+
+def _length(move: Move) -> float:
+    if move.kind == "arc":
+        return arc_length((move.sx, move.sy), (move.x, move.y), (move.cx, move.cy),
+                          bool(move.cw))
+    return math.hypot(move.x - move.sx, move.y - move.sy)
+
+
+def _print_table(items: List[Item], steps_per_mm: float, out: TextIO,
+                 z_steps_per_mm: float = 1.0) -> None:
+    out.write(f"{'line':>5} {'N':>5}  {'move':<10} {'pen':<4} {'feed':>8} "
+              f"{'X':>10} {'Y':>10} {'centre X':>10} {'centre Y':>10}  steps\n")
+    for item in items:
+        if isinstance(item, Move):
+            kind = "rapid" if item.rapid else item.kind
+            if item.kind == "arc":
+                kind = ("circle " if item.is_full_circle else "arc ") + \
+                       ("cw" if item.cw else "ccw")
+            centre = (f"{item.cx:10.4f} {item.cy:10.4f}" if item.kind == "arc"
+                      else " " * 21)
+            # an arc of more than 180 degrees is sent as two pieces
+            pieces = []
+            for step in to_steps([item], steps_per_mm):
+                text = f"{step.x},{step.y}"
+                if step.kind == "arc":
+                    text += f" c{step.i:+d},{step.j:+d}"
+                pieces.append(text)
+            n = "" if item.n is None else str(item.n)
+            out.write(f"{item.line:>5} {n:>5}  {kind:<10} {item.pen:<4} "
+                      f"{item.feed:8.1f} {item.x:10.4f} {item.y:10.4f} {centre}  "
+                      f"{' | '.join(pieces)}\n")
+        elif isinstance(item, ZMove):
+            kind = "rapid z" if item.rapid else "z"
+            out.write(f"{item.line:>5} {'':>5}  {kind:<10} {'':<4} {item.feed:8.1f} "
+                      f"{'Z ' + format(item.z, '.4f'):>21} {'':21}  z{round_step(item.z * z_steps_per_mm)}\n")
+        elif isinstance(item, Dwell):
+            out.write(f"{item.line:>5} {'':>5}  dwell {item.seconds:g} s\n")
+        elif isinstance(item, PenChange):
+            out.write(f"{item.line:>5} {'':>5}  pen {item.pen}\n")
+        elif isinstance(item, Pause):
+            out.write(f"{item.line:>5} {'':>5}  pause (M0)\n")
+
+
+def _summary(path: str, items: List[Item]) -> str:
+    moves = [i for i in items if isinstance(i, Move)]
+    drawn = sum(_length(m) for m in moves if m.pen == "down" and not m.rapid)
+    travel = sum(_length(m) for m in moves if m.pen == "up" or m.rapid)
+    z_moves = [i for i in items if isinstance(i, ZMove)]
+    minutes = sum(_length(m) / m.feed for m in moves) + sum(abs(m.z - m.sz) / m.feed for m in z_moves)
+    seconds = 60.0 * minutes + sum(i.seconds for i in items if isinstance(i, Dwell))
+    xs = [0.0] + [m.x for m in moves]
+    ys = [0.0] + [m.y for m in moves]
+    arcs = sum(1 for m in moves if m.kind == "arc")
+    rapids = sum(1 for m in moves if m.rapid)
+    return (f"{path}: OK, {len(moves)} moves ({rapids} rapid, "
+            f"{len(moves) - rapids - arcs} lines, {arcs} arcs"
+            + (f", {len(z_moves)} Z moves" if z_moves else "") + f"); drawn {drawn:.1f} mm, "
+            f"travel {travel:.1f} mm, about {seconds:.0f} s at the programmed feeds; "
+            f"end points within X {min(xs):.2f}..{max(xs):.2f}, "
+            f"Y {min(ys):.2f}..{max(ys):.2f} mm")
+
+
+def run_check(args: argparse.Namespace, out: TextIO = None, err: TextIO = None) -> int:
+    out = out or sys.stdout
+    err = err or sys.stderr
+    try:
+        with open(args.file, "rb") as f:
+            data = f.read()
+    except OSError as exc:
+        err.write(f"{args.file}: cannot read: {exc.strerror or exc}\n")
+        return EXIT_BAD_PROGRAM
+    if not (args.steps_per_mm > 0 and math.isfinite(args.steps_per_mm)):
+        err.write("--steps-per-mm must be a positive number\n")
+        return EXIT_BAD_PROGRAM
+    if not (args.rapid_rate > 0 and math.isfinite(args.rapid_rate)):
+        err.write("--rapid-rate must be a positive number\n")
+        return EXIT_BAD_PROGRAM
+    if not (args.z_steps_per_mm > 0 and math.isfinite(args.z_steps_per_mm)):
+        err.write("--z-steps-per-mm must be a positive number\n")
+        return EXIT_BAD_PROGRAM
+    try:
+        items = load_program(data, rapid_rate=args.rapid_rate, z_axis=args.z_axis)
+        if not args.no_limits:
+            check_limits(items, WorkArea(args.x_min, args.x_max, args.y_min, args.y_max,
+                                         args.z_min, args.z_max))
+    except GCodeError as exc:
+        err.write(f"{args.file}:{exc}\n")
+        return EXIT_BAD_PROGRAM
+    if args.json:
+        for item in items:
+            if isinstance(item, Move):
+                out.write(json.dumps(move_record(item)) + "\n")
+            elif isinstance(item, ZMove):
+                out.write(json.dumps(z_record(item)) + "\n")
+        return EXIT_OK
+    _print_table(items, args.steps_per_mm, out, args.z_steps_per_mm)
+    out.write(_summary(args.file, items) + "\n")
+    return EXIT_OK
+
+
+COMMANDS = (Command("check", "validate a G-code program and print the moves it would make",
+                    _configure_check, run_check),)
