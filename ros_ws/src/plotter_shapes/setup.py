@@ -14,11 +14,15 @@ setup(
     zip_safe=True,
     maintainer='Plotter maintainers',
     maintainer_email='plotter@example.com',
-    description='Shape geometry and the DrawShape action server of the plotter.',
+    description='Shape geometry, SVG and text input, the DrawShape action server and the draw, svg and text subcommands of the plotter command.',
     license='MIT',
     entry_points={
         'console_scripts': [
             'shape_server = plotter_shapes.shape_server_node:main',
+        ],
+        # Subcommands of plotter_bridge's `plotter` command (draw, svg, text).
+        'plotter.commands': [
+            'shapes = plotter_shapes.commands:COMMANDS',
         ],
     },
 )

@@ -1,6 +1,8 @@
-"""`plotter stream`, `draw`, `resume`, `jobs` and `watch`: the node graph from the command line.
+"""`plotter stream`, `resume`, `jobs` and `watch`: the node graph from the command line.
 
-ROS is imported only when one of these runs, so `plotter check` stays quick.
+`run_program_text` and `connection_args` also serve the subcommands other
+packages add (plotter_shapes: `draw`, `svg`, `text`).  ROS is imported only
+when one of these runs, so `plotter check` stays quick.
 A program is parsed before any node starts, and checked against the work
 area from the pen's actual position before anything moves.
 """
@@ -21,10 +23,10 @@ from plotter_bridge.motion.kinematics import DEFAULT_Z_STEPS_PER_MM
 from .command import EXIT_BAD_PROGRAM, EXIT_FAILED, EXIT_OK, Command
 
 HANGING_AREA = (0.0, 800.0, 0.0, 1000.0)   # seed 003's board below its pulleys, mm
-DEFAULT_FEED = 1500.0      # mm/min for shapes drawn without --feed
 
 
-def _connection_args(p: argparse.ArgumentParser) -> None:
+def connection_args(p: argparse.ArgumentParser) -> None:
+    """The arguments of every subcommand that runs a program: where the board is, the machine."""
     where = p.add_mutually_exclusive_group(required=True)
     where.add_argument("--port", metavar="PORT", help="serial port or pyserial URL of the board")
     where.add_argument("--mock", action="store_true", help="run on a simulated board (the firmware core)")
@@ -216,7 +218,7 @@ def run_program_text(text: str, name: str, args: argparse.Namespace,
 
 def _configure_stream(p: argparse.ArgumentParser) -> None:
     p.add_argument("file", metavar="FILE.gcode", help="G-code program to draw")
-    _connection_args(p)
+    connection_args(p)
 
 
 def run_stream(args: argparse.Namespace) -> int:
@@ -239,50 +241,11 @@ _STREAM = Command("stream", "stream a G-code program to the board (or a mock boa
                   _configure_stream, run_stream)
 
 
-# ---------------------------------------------------------------- draw
-
-def _configure_draw(p: argparse.ArgumentParser) -> None:
-    p.add_argument("shape", help="diamond, star, circle, cone, car, line or arc")
-    p.add_argument("--size", type=float, default=0.0, metavar="MM",
-                   help="radius of a circle/arc, overall size of the others (default 40)")
-    p.add_argument("--x", type=float, default=None, metavar="MM", help="anchor or centre X (default 100)")
-    p.add_argument("--y", type=float, default=None, metavar="MM", help="anchor or centre Y (default 100)")
-    p.add_argument("--x2", type=float, default=0.0, metavar="MM", help="line: end X")
-    p.add_argument("--y2", type=float, default=0.0, metavar="MM", help="line: end Y")
-    p.add_argument("--start-angle", type=float, default=0.0, metavar="DEG", help="arc: start angle")
-    p.add_argument("--end-angle", type=float, default=0.0, metavar="DEG", help="arc: end angle")
-    p.add_argument("--ccw", action="store_true", help="circles and arcs counter-clockwise (default clockwise)")
-    p.add_argument("--reverse", action="store_true", help="draw the figure backwards")
-    p.add_argument("--feed", type=float, default=DEFAULT_FEED, metavar="MM_PER_MIN",
-                   help=f"drawing feed (default {DEFAULT_FEED:g})")
-    _connection_args(p)
-
-
-def shape_program(args: argparse.Namespace) -> List[str]:
-    from plotter_shapes.geometry import build_shape, figure_to_gcode
-    figure = build_shape(args.shape, args.x, args.y, args.size, not args.ccw, args.reverse,
-                         args.feed, args.x2, args.y2, args.start_angle, args.end_angle)
-    return figure_to_gcode(figure, args.feed, args.shape)
-
-
-def run_draw(args: argparse.Namespace) -> int:
-    from plotter_shapes.geometry import ShapeError
-    try:
-        lines = shape_program(args)
-    except ShapeError as exc:
-        sys.stderr.write(f"draw: {exc}\n")
-        return EXIT_BAD_PROGRAM
-    return run_program_text("\n".join(lines) + "\n", args.shape, args)
-
-
-_DRAW = Command("draw", "draw one of the built-in shapes", _configure_draw, run_draw)
-
-
 # ---------------------------------------------------------------- resume, jobs
 
 def _configure_resume(p: argparse.ArgumentParser) -> None:
     p.add_argument("resume_id", metavar="JOB_ID", help="id of an interrupted job (see plotter jobs)")
-    _connection_args(p)
+    connection_args(p)
 
 
 def run_resume(args: argparse.Namespace) -> int:
@@ -356,69 +319,6 @@ _WATCH = Command("watch", "print live positions (like ros2 topic echo /plotter/p
                   _configure_watch, run_watch)
 
 
-# ---------------------------------------------------------------- svg and text
-
-def _drawing_args(p: argparse.ArgumentParser, what: str) -> None:
-    p.add_argument("--width", type=float, default=None, metavar="MM",
-                   help=f"scale the {what} to this width (default: {'its own size' if what == 'drawing' else 'the font size'})")
-    p.add_argument("--x", type=float, default=100.0, metavar="MM", help=f"centre of the {what}, X (default 100)")
-    p.add_argument("--y", type=float, default=100.0, metavar="MM", help=f"centre of the {what}, Y (default 100)")
-    p.add_argument("--optimize", action="store_true",
-                   help="merge paths that meet and reorder them for less pen-up travel (vpype linemerge, linesort)")
-    p.add_argument("--feed", type=float, default=DEFAULT_FEED, metavar="MM_PER_MIN",
-                   help=f"drawing feed (default {DEFAULT_FEED:g})")
-    p.add_argument("--gcode", metavar="OUT.gcode", default="", help="also write the program here")
-    _connection_args(p)
 
 
-def _run_drawing(make_program, name: str, args: argparse.Namespace) -> int:
-    from plotter_shapes.geometry import ShapeError
-    from plotter_shapes.svg_input import VectorError
-    try:
-        lines = make_program()
-    except (VectorError, ShapeError) as exc:
-        sys.stderr.write(f"{name}: {exc}\n")
-        return EXIT_BAD_PROGRAM
-    text = "\n".join(lines) + "\n"
-    if args.gcode:
-        Path(args.gcode).write_text(text)
-    return run_program_text(text, name, args)
-
-
-def _configure_svg(p: argparse.ArgumentParser) -> None:
-    p.add_argument("file", metavar="FILE.svg", help="vector drawing to plot")
-    _drawing_args(p, "drawing")
-
-
-def run_svg(args: argparse.Namespace) -> int:
-    from plotter_shapes.svg_input import Placement, svg_program
-    if not Path(args.file).is_file():
-        sys.stderr.write(f"{args.file}: no such file\n")
-        return EXIT_BAD_PROGRAM
-    placement = Placement(args.width, (args.x, args.y))
-    return _run_drawing(lambda: svg_program(args.file, placement, args.feed, args.optimize), args.file, args)
-
-
-_SVG = Command("svg", "plot an SVG drawing (circles and arcs as arcs, curves as lines)", _configure_svg, run_svg)
-
-
-def _configure_text(p: argparse.ArgumentParser) -> None:
-    from plotter_shapes.text_input import DEFAULT_FONT
-    p.add_argument("text", help="one line of text")
-    p.add_argument("--font", default=DEFAULT_FONT, help=f"Hershey font (default {DEFAULT_FONT})")
-    p.add_argument("--size", type=float, default=10.0, metavar="MM", help="font size (default 10)")
-    _drawing_args(p, "text")
-
-
-def run_text(args: argparse.Namespace) -> int:
-    from plotter_shapes.svg_input import Placement
-    from plotter_shapes.text_input import text_program
-    placement = Placement(args.width, (args.x, args.y))
-    return _run_drawing(lambda: text_program(args.text, args.font, args.size, placement, args.feed, args.optimize),
-                        args.text, args)
-
-
-_TEXT = Command("text", "write text in a Hershey font", _configure_text, run_text)
-
-
-COMMANDS = (_STREAM, _DRAW, _RESUME, _JOBS, _WATCH, _SVG, _TEXT)
+COMMANDS = (_STREAM, _RESUME, _JOBS, _WATCH)
