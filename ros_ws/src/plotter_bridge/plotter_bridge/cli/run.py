@@ -125,14 +125,12 @@ class StateRecorder:
     """The bridge's reported positions and pen states while a program runs."""
 
     def __init__(self, node) -> None:
-        from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
+        from plotter_bridge.nodes.qos import latched
         from plotter_interfaces.msg import BoardState
         self._disconnected = BoardState.DISCONNECTED
         self.samples: List[tuple] = []
         self.first = threading.Event()
-        latched = QoSProfile(depth=1, reliability=ReliabilityPolicy.RELIABLE,
-                             durability=DurabilityPolicy.TRANSIENT_LOCAL)
-        node.create_subscription(BoardState, "state", self._on_state, latched)
+        node.create_subscription(BoardState, "state", self._on_state, latched())
 
     def _on_state(self, msg) -> None:
         if msg.state == self._disconnected:

@@ -41,13 +41,13 @@ from std_msgs.msg import String
 
 from plotter_interfaces.action import RunProgram, StreamCommands
 from plotter_interfaces.msg import BoardState
-from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
 
 from action_msgs.msg import GoalStatus
 from rclpy.action.client import ClientGoalHandle
 from unique_identifier_msgs.msg import UUID
 
 from .main import run_node
+from .qos import latched
 from plotter_bridge.gcode.limits import WorkArea
 from plotter_bridge.gcode.types import GCodeError
 from plotter_bridge.link.protocol import MAX_RATE
@@ -118,11 +118,9 @@ class GCodeStreamer(Node):
                                     goal_callback=lambda _: GoalResponse.ACCEPT,
                                     cancel_callback=lambda _: CancelResponse.ACCEPT,
                                     callback_group=group)
-        latched = QoSProfile(depth=1, reliability=ReliabilityPolicy.RELIABLE,
-                             durability=DurabilityPolicy.TRANSIENT_LOCAL)
         self._board: Optional[BoardState] = None
         self._board_changed = threading.Condition()
-        self.create_subscription(BoardState, "state", self._on_state, latched, callback_group=group)
+        self.create_subscription(BoardState, "state", self._on_state, latched(), callback_group=group)
         self._busy = threading.Lock()      # one program on the board at a time
         self._last_xy = (0.0, 0.0)
         self.pub_lease = self.create_publisher(String, "job_lease", 10)

@@ -16,12 +16,12 @@ same events on demand.
 from __future__ import annotations
 
 from rclpy.node import Node
-from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
 from rcl_interfaces.msg import ParameterDescriptor
 from std_msgs.msg import String
 from std_srvs.srv import Trigger
 
 from .main import run_node
+from .qos import latched
 from plotter_bridge.sim.faults import parse_faults
 from .params import declare_machine
 from plotter_bridge.sim.mock_board import MockBoard, MockBoardConfig
@@ -52,9 +52,7 @@ class MockBoardNode(Node):
         if config.baud <= 0:
             raise ValueError("baud must be positive")
         self.board = MockBoard(config)
-        latched = QoSProfile(depth=1, reliability=ReliabilityPolicy.RELIABLE,
-                             durability=DurabilityPolicy.TRANSIENT_LOCAL)
-        self.create_publisher(String, "mock_port", latched).publish(String(data=self.board.port_path))
+        self.create_publisher(String, "mock_port", latched()).publish(String(data=self.board.port_path))
         self.create_service(Trigger, "~/unplug", self._srv_unplug)
         self.create_service(Trigger, "~/power_cycle", self._srv_power_cycle)
         self.board.start()

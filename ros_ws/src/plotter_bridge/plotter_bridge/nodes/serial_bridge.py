@@ -27,7 +27,6 @@ from geometry_msgs.msg import PointStamped
 from rclpy.action import ActionServer, CancelResponse, GoalResponse
 from rclpy.callback_groups import ReentrantCallbackGroup
 from rclpy.node import Node
-from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
 from rcl_interfaces.msg import ParameterDescriptor
 from std_msgs.msg import String
 from std_srvs.srv import Trigger
@@ -36,6 +35,7 @@ from plotter_interfaces.action import StreamCommands
 from plotter_interfaces.msg import BoardState
 
 from .main import run_node
+from .qos import latched
 from .params import declare_machine
 from plotter_bridge.link.board_session import DISCONNECTED, QUEUE_SIZE, BoardSession, Job, SessionConfig
 from plotter_bridge.link.protocol import Status
@@ -113,10 +113,8 @@ class SerialBridge(Node):
                                baud=int(self.get_parameter("baud").value),
                                reconnect_timeout=float(self.get_parameter("reconnect_timeout").value))
 
-        latched = QoSProfile(depth=1, reliability=ReliabilityPolicy.RELIABLE,
-                             durability=DurabilityPolicy.TRANSIENT_LOCAL)
         self.pub_position = self.create_publisher(PointStamped, "position", 10)
-        self.pub_state = self.create_publisher(BoardState, "state", latched)
+        self.pub_state = self.create_publisher(BoardState, "state", latched())
         group = ReentrantCallbackGroup()
         for name, handler in (("estop", self._srv_estop), ("hold", self._srv_hold),
                               ("resume", self._srv_resume), ("reset", self._srv_reset),

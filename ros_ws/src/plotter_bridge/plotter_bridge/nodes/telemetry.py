@@ -253,19 +253,17 @@ class BridgeTelemetry:
                  clock: Callable[[], float] = time.monotonic, to_pen: Optional[ToPen] = None) -> None:
         from diagnostic_msgs.msg import DiagnosticArray
         from nav_msgs.msg import Path
-        from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
         from visualization_msgs.msg import Marker
+        from .qos import latched
         self.node = node
         self.steps_per_mm = steps_per_mm
         self.frame_id = frame_id
         self.clock = clock
         self.to_pen = to_pen
-        latched = QoSProfile(depth=1, reliability=ReliabilityPolicy.RELIABLE,
-                             durability=DurabilityPolicy.TRANSIENT_LOCAL)
-        self.pub_path = node.create_publisher(Path, "path", latched)
-        self.pub_planned = node.create_publisher(Path, "planned_path", latched)
+        self.pub_path = node.create_publisher(Path, "path", latched())
+        self.pub_planned = node.create_publisher(Path, "planned_path", latched())
         self.pub_pen = node.create_publisher(Marker, "pen", 10)
-        self.pub_ink = node.create_publisher(Marker, "ink", latched)
+        self.pub_ink = node.create_publisher(Marker, "ink", latched())
         self.pub_diag = node.create_publisher(DiagnosticArray, "/diagnostics", 10)
         self._lock = threading.Lock()
         self._diag_lock = threading.Lock()
