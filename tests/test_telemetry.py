@@ -1,4 +1,4 @@
-"""The bridge's RViz topics (path, planned_path, pen, ink) and /diagnostics (plotter_bridge.nodes.telemetry)."""
+"""The bridge's RViz topics (path, planned_path, pen, ink) and /diagnostics (plotter_bridge.link.telemetry, nodes.telemetry)."""
 import math
 import random
 import threading
@@ -10,9 +10,9 @@ from plotter_bridge.link.board_link import LinkStats
 from plotter_bridge.gcode.limits import WorkArea
 from plotter_bridge.motion.kinematics import Machine
 from plotter_bridge.motion.compiler import StreamerConfig, compile_program
-from plotter_bridge.nodes.telemetry import (ERROR, OK, STALE, WARN, BridgeSnapshot, LinkCounters, Sample,
-                                      diagnose_board, diagnose_link, ink_segments, planned_pen_points,
-                                      planned_points, step_rate, thin)
+from plotter_bridge.link.telemetry import (ERROR, OK, STALE, WARN, BridgeSnapshot, LinkCounters, Sample,
+                                          diagnose_board, diagnose_link, ink_segments, planned_pen_points,
+                                          planned_points, step_rate, thin)
 
 
 def test_planned_points_follow_lines_arcs_and_the_pen():
