@@ -53,18 +53,17 @@ import time
 import traceback
 from typing import Optional
 
-import rclpy
 from action_msgs.msg import GoalStatus
 from rcl_interfaces.msg import ParameterDescriptor, SetParametersResult
 from rclpy.action import ActionClient, ActionServer, CancelResponse, GoalResponse
 from rclpy.callback_groups import ReentrantCallbackGroup
-from rclpy.exceptions import InvalidParameterValueException
-from rclpy.executors import ExternalShutdownException, MultiThreadedExecutor
 from rclpy.node import Node
 from std_msgs.msg import String
 
 from plotter_interfaces.action import DrawShape, RunProgram
 from plotter_interfaces.msg import ShapeGoal
+
+from plotter_bridge.nodes.main import run_node
 
 from plotter_shapes.geometry import (
     DEFAULT_FEED_MM_MIN,
@@ -330,25 +329,7 @@ class ShapeServer(Node):
 def main(args: Optional[list[str]] = None) -> int:
     """Entry point: ``ros2 run plotter_shapes shape_server`` or
     ``python -m plotter_shapes.shape_server_node``."""
-    rclpy.init(args=args)
-    node: Optional[ShapeServer] = None
-    executor = MultiThreadedExecutor(num_threads=4)
-    status = 0
-    try:
-        node = ShapeServer()
-        executor.add_node(node)
-        executor.spin()
-    except (KeyboardInterrupt, ExternalShutdownException):
-        pass
-    except InvalidParameterValueException as exc:
-        rclpy.logging.get_logger(NODE_NAME).fatal(f"bad parameter: {exc}")
-        status = 1
-    finally:
-        executor.shutdown()
-        if node is not None:
-            node.destroy_node()
-        rclpy.try_shutdown()
-    return status
+    return run_node(ShapeServer, NODE_NAME, args)
 
 
 if __name__ == "__main__":

@@ -27,35 +27,36 @@ from __future__ import annotations
 
 import math
 import queue
+import sys
 import threading
 import time
 import uuid
 from dataclasses import dataclass, replace
 from typing import Optional, Tuple
 
+from action_msgs.msg import GoalStatus
+from rcl_interfaces.msg import ParameterDescriptor
 from rclpy.action import ActionClient, ActionServer, CancelResponse, GoalResponse
+from rclpy.action.client import ClientGoalHandle
 from rclpy.callback_groups import ReentrantCallbackGroup
 from rclpy.node import Node
-from rcl_interfaces.msg import ParameterDescriptor
 from std_msgs.msg import String
+from unique_identifier_msgs.msg import UUID
 
 from plotter_interfaces.action import RunProgram, StreamCommands
 from plotter_interfaces.msg import BoardState
 
-from action_msgs.msg import GoalStatus
-from rclpy.action.client import ClientGoalHandle
-from unique_identifier_msgs.msg import UUID
-
-from .main import run_node
-from .qos import latched
 from plotter_bridge.gcode.limits import WorkArea
 from plotter_bridge.gcode.types import GCodeError
+from plotter_bridge.link.journal import (DONE, INTERRUPTED, RUNNING, Journal, JobRecord, Progress,
+                                         default_journal_dir, resume_commands)
 from plotter_bridge.link.protocol import MAX_RATE
-from plotter_bridge.link.journal import (DONE, INTERRUPTED, RUNNING, Journal, JobRecord, Progress, default_journal_dir,
-                      resume_commands)
-from .params import declare_machine
-from plotter_bridge.motion.planner import link_baud
 from plotter_bridge.motion.compiler import MAX_PROGRAM_BYTES, StreamerConfig, compile_program
+from plotter_bridge.motion.planner import link_baud
+
+from .main import run_node
+from .params import declare_machine
+from .qos import latched
 
 DEFAULT_NAMESPACE = "/plotter"   # `-r __ns:=/plotter2` runs a second plotter beside it
 MAX_NAME_LEN = 200
@@ -341,9 +342,9 @@ def _wait(future, timeout: float) -> bool:
     return event.wait(timeout) or future.done()
 
 
-def main(args=None) -> None:
-    run_node(GCodeStreamer, "gcode_streamer", args)
+def main(args=None) -> int:
+    return run_node(GCodeStreamer, "gcode_streamer", args)
 
 
 if __name__ == "__main__":
-    main()
+    sys.exit(main())

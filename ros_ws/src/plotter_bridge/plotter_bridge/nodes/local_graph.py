@@ -20,10 +20,11 @@ from rclpy.parameter import Parameter
 
 from plotter_interfaces.action import RunProgram
 
-from plotter_bridge.sim.faults import FaultSpec
-from .gcode_streamer import GCodeStreamer
 from plotter_bridge.motion.kinematics import DEFAULT_Z_STEPS_PER_MM, Machine
+from plotter_bridge.sim.faults import FaultSpec
 from plotter_bridge.sim.mock_board import MockBoard, MockBoardConfig
+
+from .gcode_streamer import GCodeStreamer
 from .serial_bridge import SerialBridge
 
 ProgressCallback = Callable[[RunProgram.Feedback], None]

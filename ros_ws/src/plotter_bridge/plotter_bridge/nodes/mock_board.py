@@ -15,16 +15,19 @@ same events on demand.
 """
 from __future__ import annotations
 
-from rclpy.node import Node
+import sys
+
 from rcl_interfaces.msg import ParameterDescriptor
+from rclpy.node import Node
 from std_msgs.msg import String
 from std_srvs.srv import Trigger
 
-from .main import run_node
-from .qos import latched
 from plotter_bridge.sim.faults import parse_faults
-from .params import declare_machine
 from plotter_bridge.sim.mock_board import MockBoard, MockBoardConfig
+
+from .main import run_node
+from .params import declare_machine
+from .qos import latched
 
 DEFAULT_NAMESPACE = "/plotter"
 
@@ -87,9 +90,9 @@ class MockBoardNode(Node):
         super().destroy_node()
 
 
-def main(args=None) -> None:
-    run_node(MockBoardNode, "mock_board", args)
+def main(args=None) -> int:
+    return run_node(MockBoardNode, "mock_board", args)
 
 
 if __name__ == "__main__":
-    main()
+    sys.exit(main())

@@ -34,11 +34,12 @@ from std_srvs.srv import Trigger
 from plotter_interfaces.action import StreamCommands
 from plotter_interfaces.msg import BoardState
 
-from .main import run_node
-from .qos import latched
-from .params import declare_machine
 from plotter_bridge.link.board_session import DISCONNECTED, QUEUE_SIZE, BoardSession, Job, SessionConfig
 from plotter_bridge.link.protocol import Status
+
+from .main import run_node
+from .params import declare_machine
+from .qos import latched
 from .telemetry import BridgeTelemetry
 
 STATE_CODES = {"Idle": BoardState.IDLE, "Run": BoardState.RUNNING,
@@ -314,9 +315,9 @@ class SerialBridge(Node):
         super().destroy_node()
 
 
-def main(args=None) -> None:
-    run_node(SerialBridge, "serial_bridge", args)
+def main(args=None) -> int:
+    return run_node(SerialBridge, "serial_bridge", args)
 
 
 if __name__ == "__main__":
-    main()
+    sys.exit(main())

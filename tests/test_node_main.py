@@ -1,0 +1,66 @@
+"""Every node shares one main (plotter_bridge/nodes/main.py): started as a
+plain script, a bad parameter ends it with exit code 1 and one line saying
+so, and Ctrl-C ends it cleanly with 0."""
+import random
+import time
+
+import pytest
+
+from node_processes import NodeProcess
+
+pytestmark = pytest.mark.ros
+
+# (module, a parameter it refuses: a value out of range and a value of the wrong type)
+NODES = [
+    ("plotter_bridge.nodes.serial_bridge", ("steps_per_mm:=-80.0", "status_hz:=fast")),
+    ("plotter_bridge.nodes.gcode_streamer", ("lease:=0.0", "x_max:=wide")),
+    ("plotter_bridge.nodes.mock_board", ("baud:=0", "baud:=fast")),
+    ("plotter_shapes.shape_server_node", ("default_size:=-5.0", "default_feed:=slow")),
+]
+HEALTHY = {
+    "plotter_bridge.nodes.serial_bridge": ("-p", "port:=/nonexistent/plotter"),
+    "plotter_bridge.nodes.gcode_streamer": (),
+    "plotter_bridge.nodes.mock_board": (),
+    "plotter_shapes.shape_server_node": (),
+}
+
+
+def _domain() -> int:
+    return random.SystemRandom().randint(110, 200)
+
+
+def _wait_exit(proc: NodeProcess, timeout: float = 30.0) -> int:
+    end = time.monotonic() + timeout
+    while proc.alive() and time.monotonic() < end:
+        time.sleep(0.05)
+    assert not proc.alive(), f"{proc.module} still running:\n{proc.output()}"
+    return proc.proc.returncode
+
+
+@pytest.mark.parametrize("module,bad", [(m, b) for m, bads in NODES for b in bads])
+def test_a_bad_parameter_exits_1_with_one_line(module, bad, tmp_path):
+    extra = ("-p", f"journal_dir:={tmp_path}") if module.endswith("gcode_streamer") else ()
+    proc = NodeProcess(module, _domain(), (*extra, "-p", bad))
+    try:
+        code = _wait_exit(proc)
+        out = proc.output()
+        assert code == 1, out
+        assert "Traceback" not in out, out
+        lines = [line for line in out.splitlines() if "bad parameter" in line]
+        assert len(lines) == 1, out
+        assert bad.split(":=")[0] in lines[0] or "bad machine parameters" in lines[0], out
+    finally:
+        proc.close()
+
+
+@pytest.mark.parametrize("module", [m for m, _ in NODES])
+def test_ctrl_c_exits_0(module, tmp_path):
+    extra = ("-p", f"journal_dir:={tmp_path}") if module.endswith("gcode_streamer") else ()
+    proc = NodeProcess(module, _domain(), (*extra, *HEALTHY[module]))
+    try:
+        time.sleep(3.0)                      # up and spinning
+        assert proc.alive(), proc.output()
+        assert proc.interrupt() == 0, proc.output()
+        assert "Traceback" not in proc.output(), proc.output()
+    finally:
+        proc.close()
