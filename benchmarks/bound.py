@@ -1,6 +1,6 @@
 """The time-optimal drawing time of a program, for the board's own limits.
 
-Written independently of the host planner (plotter_bridge.planner): the
+Written independently of the host planner (plotter_bridge.motion.planner): the
 benchmark compares what the board achieves with this bound, so it must not
 share the planner's code or its mistakes.
 

@@ -1,5 +1,5 @@
 #!/usr/bin/env python3
-"""A mock board (plotter_bridge.mock_board) as a process of its own, for the benchmark.
+"""A mock board (plotter_bridge.sim.mock_board) as a process of its own, for the benchmark.
 
 Like the mock_board node, without ROS: a pty (symlinked at --link) with the
 firmware core behind it in real time, and its step trace.  In addition it

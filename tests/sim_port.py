@@ -4,7 +4,7 @@ Tests drive BoardLink against the real protocol and interpolation code
 without a pty or real-time waits: `advance(dt)` runs the board for dt
 seconds of its own clock (UART bytes at the baud rate, main loop, step
 interrupts).  Optional hooks may damage the bytes in either direction, or a
-FaultSpec (plotter_bridge.faults) whose channels count what they did; and
+FaultSpec (plotter_bridge.sim.faults) whose channels count what they did; and
 `unplugged` makes the port vanish for the host while the board runs on.
 """
 from __future__ import annotations

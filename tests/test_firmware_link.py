@@ -2,7 +2,7 @@
 
 The board's image (make -C firmware: the serial controller with the front
 panel beside it) is driven the way serial_bridge drives it, with the host's
-own encoder and reply parser (plotter_bridge.protocol).  Checked:
+own encoder and reply parser (plotter_bridge.link.protocol).  Checked:
 
 - machine lines are answered `ok N<seq> Q<free>`, every reply and status
   report carries a checksum that the host's parser accepts;

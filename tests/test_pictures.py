@@ -1,4 +1,4 @@
-"""Pictures of what was drawn (plotter_bridge.picture, `plotter stream/draw --svg/--png`)."""
+"""Pictures of what was drawn (plotter_bridge.cli.picture, `plotter stream/draw --svg/--png`)."""
 import math
 import re
 import xml.etree.ElementTree as ET
