@@ -45,6 +45,17 @@ class Probe:
         self.executor.add_node(self.node)
         self._thread = threading.Thread(target=self.executor.spin, daemon=True)
         self._thread.start()
+        self._action_clients = {}
+
+    def action_client(self, action_type, name: str):
+        """One action client per action, kept until close(): an action client
+        destroyed while the executor waits on it kills the spin thread
+        ("action client pointer is invalid")."""
+        from rclpy.action import ActionClient
+        key = (action_type, name)
+        if key not in self._action_clients:
+            self._action_clients[key] = ActionClient(self.node, action_type, name)
+        return self._action_clients[key]
 
     def close(self) -> None:
         import rclpy

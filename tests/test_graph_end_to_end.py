@@ -134,10 +134,9 @@ def test_star_from_a_topic_message_is_drawn(graph):
 
 
 def run_program(graph, text, cancel_after=None):
-    from rclpy.action import ActionClient
     from plotter_interfaces.action import RunProgram
 
-    client = ActionClient(graph.probe.node, RunProgram, "run_program")
+    client = graph.probe.action_client(RunProgram, "run_program")
     assert client.wait_for_server(timeout_sec=30)
     feedback = []
     goal = RunProgram.Goal(program=text, name="test")
@@ -151,7 +150,6 @@ def run_program(graph, text, cancel_after=None):
         time.sleep(cancel_after)
         handle.cancel_goal_async()
     wait_until(res.done, 300, "the program's result")
-    client.destroy()
     return res.result(), feedback
 
 
@@ -200,7 +198,6 @@ def call(graph, name):
 
 def test_hold_resume_estop_reset_and_set_origin_services(graph):
     from plotter_interfaces.msg import BoardState
-    from rclpy.action import ActionClient
     from plotter_interfaces.action import RunProgram
 
     def latest():
@@ -208,7 +205,7 @@ def test_hold_resume_estop_reset_and_set_origin_services(graph):
             return graph.states[-1]
 
     slow = "G21 G90\nM3\n" + "".join(f"G1 X{150 if k % 2 == 0 else 40} Y{60 + k} F900\n" for k in range(20)) + "M2\n"
-    client = ActionClient(graph.probe.node, RunProgram, "run_program")
+    client = graph.probe.action_client(RunProgram, "run_program")
     assert client.wait_for_server(timeout_sec=30)
     send = client.send_goal_async(RunProgram.Goal(program=slow, name="services"))
     wait_until(send.done, 30, "goal acceptance")
@@ -239,7 +236,6 @@ def test_hold_resume_estop_reset_and_set_origin_services(graph):
     assert call(graph, "set_origin").success
     wait_until(lambda: latest()[3:] == (0, 0), 10, "position 0,0 after set_origin")
     graph.origin_moved = stopped[-1][1:]
-    client.destroy()
 
 
 def test_watch_prints_live_positions(graph):

@@ -18,7 +18,6 @@ def test_hanging_circle_through_the_graph_stays_within_a_tenth_of_a_millimetre(t
     from action_msgs.msg import GoalStatus
     from geometry_msgs.msg import PointStamped
     from nav_msgs.msg import Path
-    from rclpy.action import ActionClient
     from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
     from plotter_interfaces.action import RunProgram
 
@@ -43,7 +42,7 @@ def test_hanging_circle_through_the_graph_stays_within_a_tenth_of_a_millimetre(t
     latched = QoSProfile(depth=1, reliability=ReliabilityPolicy.RELIABLE, durability=DurabilityPolicy.TRANSIENT_LOCAL)
     probe.node.create_subscription(Path, "planned_path", on_planned, latched)
     try:
-        client = ActionClient(probe.node, RunProgram, "run_program")
+        client = probe.action_client(RunProgram, "run_program")
         assert client.wait_for_server(timeout_sec=60)
         program = "G21 G90\nG0 X650 Y500\nM3\nG2 X650 Y500 I-250 J0 F6000\nM5\nM2\n"
         send = client.send_goal_async(RunProgram.Goal(program=program, name="hanging circle"))
@@ -67,7 +66,6 @@ def test_hanging_circle_through_the_graph_stays_within_a_tenth_of_a_millimetre(t
         on_circle = next(k for k, p in enumerate(plan) if math.dist(p, (650, 500)) < 0.05)
         assert len(plan) - on_circle > 50
         assert max(abs(math.hypot(x - 400, y - 500) - 250) for x, y in plan[on_circle:]) <= 0.1
-        client.destroy()
     except BaseException:
         print(graph.outputs())
         raise

@@ -90,9 +90,8 @@ class Goal:
     """A run_program goal sent from the probe."""
 
     def __init__(self, g, program="", resume="", name="test"):
-        from rclpy.action import ActionClient
         from plotter_interfaces.action import RunProgram
-        self.client = ActionClient(g.probe.node, RunProgram, "run_program")
+        self.client = g.probe.action_client(RunProgram, "run_program")
         assert self.client.wait_for_server(timeout_sec=30)
         self.feedback = []
         send = self.client.send_goal_async(RunProgram.Goal(program=program, name=name, resume=resume),
@@ -104,7 +103,6 @@ class Goal:
 
     def result(self, timeout=120):
         wait_until(self.future.done, timeout, "the program's result")
-        self.client.destroy()
         return self.future.result()
 
 
@@ -159,7 +157,6 @@ def wait_board_rest(g, settle=0.6):
 
 def test_bad_inputs_are_refused_and_no_node_dies(graph):
     from action_msgs.msg import GoalStatus
-    from rclpy.action import ActionClient
     from std_msgs.msg import String
     from plotter_interfaces.action import StreamCommands
     from plotter_interfaces.msg import ShapeGoal
@@ -200,7 +197,7 @@ def test_bad_inputs_are_refused_and_no_node_dies(graph):
         assert res.status == GoalStatus.STATUS_ABORTED and word in res.result.message, res.result.message
 
     # stream_commands goals the bridge must not take: refused outright.
-    client = ActionClient(graph.probe.node, StreamCommands, "stream_commands")
+    client = graph.probe.action_client(StreamCommands, "stream_commands")
     assert client.wait_for_server(timeout_sec=20)
     for goal in (StreamCommands.Goal(commands=[]), StreamCommands.Goal(commands=["L 1 1", "N5 L 1 1 *3"]),
                  StreamCommands.Goal(commands=["\x18"]), StreamCommands.Goal(commands=["L 1 1"], lines=[1, 2]),
@@ -208,7 +205,6 @@ def test_bad_inputs_are_refused_and_no_node_dies(graph):
         send = client.send_goal_async(goal)
         wait_until(send.done, 20, "goal response")
         assert not send.result().accepted
-    client.destroy()
 
     time.sleep(0.5)
     assert len(read_trace(graph.trace)) == before, "nothing moved"

@@ -139,11 +139,12 @@ class LocalGraph:
         return ProgramResult(r.success, r.message, r.x_mm, r.y_mm, r.job_id, self.bridge.z_mm())
 
     def close(self) -> None:
-        self._client.destroy()
         self._executor.shutdown(timeout_sec=2.0)
-        # The nodes go only once the spin thread has left the executor: a
-        # callback still running would fail on their destroyed handles.
+        # The nodes and the action client go only once the spin thread has
+        # left the executor: a callback still running, or a wait set still
+        # holding the client, would fail on their destroyed handles.
         self._spin.join(timeout=5.0)
+        self._client.destroy()
         for node in (self.client_node, self.streamer, self.bridge):
             node.destroy_node()
         if self.board is not None:
