@@ -21,7 +21,7 @@ from pathlib import Path
 from typing import Dict, List, Optional, Sequence, Tuple
 
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent / "tests"))   # the node graph as processes
-from node_processes import NodeProcess, wait_until  # noqa: E402
+from node_processes import NodeProcess, params_file, wait_until  # noqa: E402
 from plotter_bridge.motion.commands import BoardCommand
 from plotter_bridge.motion.compiler import StreamerConfig
 
@@ -176,7 +176,7 @@ class BenchGraph:
         self.mock = subprocess.Popen(cmd, stdout=self._mock_log, stderr=subprocess.STDOUT)
         wait_until(lambda: self.link.exists() and self.stats_path.exists(), 20, "the mock board")
         self.trace.start = self.board_stats()["start"]
-        ns = ("-r", "__ns:=/plotter")
+        ns = ("-r", "__ns:=/plotter", "--params-file", params_file())
         self.bridge = NodeProcess("plotter_bridge.nodes.serial_bridge", self.domain,
                                   ns + ("-p", f"port:={self.link}", "-p", f"baud:={baud}"))
         self.streamer = NodeProcess("plotter_bridge.nodes.gcode_streamer", self.domain, ns)
@@ -210,7 +210,7 @@ class BenchGraph:
         now = time.time()
         s = msg.header.stamp
         self.positions.append(Position(now, s.sec + s.nanosec * 1e-9,
-                                       round(msg.point.x * STEPS_PER_MM), round(msg.point.y * STEPS_PER_MM)))
+                                       round(msg.point.x * 1000 * STEPS_PER_MM), round(msg.point.y * 1000 * STEPS_PER_MM)))
 
     def _on_state(self, msg) -> None:
         self.state = msg

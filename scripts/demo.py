@@ -56,7 +56,7 @@ def main() -> int:
         now = time.monotonic()
         if now - last_print[0] >= 0.25:
             last_print[0] = now
-            print(f"  /plotter/position  X {msg.point.x:8.3f}  Y {msg.point.y:8.3f} mm", flush=True)
+            print(f"  /plotter/position  X {msg.point.x * 1000:8.3f}  Y {msg.point.y * 1000:8.3f} mm", flush=True)
 
     latched = QoSProfile(depth=1, reliability=ReliabilityPolicy.RELIABLE,
                          durability=DurabilityPolicy.TRANSIENT_LOCAL)

@@ -13,7 +13,7 @@ import sys
 import tempfile
 import time
 from pathlib import Path
-from typing import Callable, List
+from typing import Callable, List, Optional
 
 from plotter_bridge.sim.trace import read_seq_log, read_trace  # noqa: F401  (for the tests)
 
@@ -28,17 +28,22 @@ def wait_until(predicate: Callable[[], bool], timeout: float = 30.0, what: str =
 
 
 class NodeProcess:
-    def __init__(self, module: str, domain: int, ros_args=()) -> None:
+    def __init__(self, module: str, domain: int, ros_args=(), command: Optional[List[str]] = None) -> None:
         env = dict(os.environ)
         env["ROS_DOMAIN_ID"] = str(domain)
         env["ROS_AUTOMATIC_DISCOVERY_RANGE"] = "LOCALHOST"
         env["PYTHONUNBUFFERED"] = "1"
         self.module = module
         self.log = tempfile.TemporaryFile(mode="w+")
-        args = [sys.executable, "-m", module]
+        args = list(command) if command else [sys.executable, "-m", module]
         if ros_args:
             args += ["--ros-args", *ros_args]
         self.proc = subprocess.Popen(args, env=env, stdout=self.log, stderr=subprocess.STDOUT)
+
+    @classmethod
+    def executable(cls, path: str, domain: int, ros_args=()) -> "NodeProcess":
+        """An installed executable (lib/<package>/<name>), as `ros2 run` starts it."""
+        return cls(Path(path).name, domain, ros_args, command=[path])
 
     def output(self) -> str:
         self.log.seek(0)
@@ -66,8 +71,15 @@ class NodeProcess:
         self.log.close()
 
 
+def params_file() -> str:
+    """The installed config/plotter.yaml: the machine's settings for every node."""
+    from ament_index_python.packages import get_package_share_directory
+    return str(Path(get_package_share_directory("plotter_bridge")) / "config" / "plotter.yaml")
+
+
 class PlotterGraph:
-    """mock_board + serial_bridge + gcode_streamer + shape_server, each a process."""
+    """mock_board + serial_bridge + gcode_streamer + shape_server, each a process,
+    all with config/plotter.yaml; `*_args` add to it or override it."""
 
     def __init__(self, domain: int, workdir: Path, namespace: str = "/plotter",
                  bridge_args=(), board_args=(), streamer_args=()) -> None:
@@ -76,7 +88,7 @@ class PlotterGraph:
         self.trace = workdir / "trace.csv"
         self.seq_log = workdir / "seq_log.csv"
         self.journal = workdir / "journal"
-        self._ns = ("-r", f"__ns:={namespace}")
+        self._ns = ("-r", f"__ns:={namespace}", "--params-file", params_file())
         ns = self._ns
         self.board = NodeProcess("plotter_bridge.nodes.mock_board", domain,
                                  ns + ("-p", f"link:={self.link}", "-p", f"trace:={self.trace}",

@@ -32,7 +32,7 @@ def main() -> int:
     latched = QoSProfile(depth=1, reliability=ReliabilityPolicy.RELIABLE, durability=DurabilityPolicy.TRANSIENT_LOCAL)
     node.create_subscription(BoardState, "state", lambda m: states.append((time.monotonic(), m.state, m.queue_free)),
                              latched)
-    node.create_subscription(PointStamped, "position", lambda m: positions.append((m.point.x, m.point.y)), 10)
+    node.create_subscription(PointStamped, "position", lambda m: positions.append((m.point.x * 1000, m.point.y * 1000)), 10)
     draw = ActionClient(node, DrawShape, "draw")
     executor = SingleThreadedExecutor()
     executor.add_node(node)

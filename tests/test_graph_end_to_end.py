@@ -39,7 +39,7 @@ def watched_graph(workdir):
 
     def on_pos(m):
         with lock:
-            g.positions.append((time.monotonic(), m.point.x, m.point.y))
+            g.positions.append((time.monotonic(), m.point.x * 1000, m.point.y * 1000))   # m -> mm
 
     def on_state(m):
         with lock:

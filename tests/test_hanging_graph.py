@@ -32,7 +32,7 @@ def test_hanging_circle_through_the_graph_stays_within_a_tenth_of_a_millimetre(t
 
     def on_position(m):
         with lock:
-            positions.append((m.point.x, m.point.y))
+            positions.append((m.point.x * 1000, m.point.y * 1000))   # m -> mm
     probe.node.create_subscription(PointStamped, "position", on_position, 50)
     planned = []
 

@@ -33,7 +33,7 @@ def test_launch_file_starts_the_nodes():
 
 @pytest.mark.ros
 def test_installed_with_the_package():
-    for rel in ("rviz/plotter.rviz", "launch/plotter.launch.py"):
+    for rel in ("rviz/plotter.rviz", "launch/plotter.launch.py", "config/plotter.yaml"):
         assert (SHARE / rel).read_text() == (SRC / rel).read_text()
 
 

@@ -194,8 +194,9 @@ def test_bad_goals_are_reported_and_the_node_survives(start_server, probe):
     wait_until(lambda: len(probe.errors) >= 1, what="a shape_error for 'hexagon'")
     probe.publish(shape="star", size=float("nan"))
     wait_until(lambda: len(probe.errors) >= 2, what="a shape_error for size NaN")
-    assert probe.errors[0].startswith("shape:") and "hexagon" in probe.errors[0]
-    assert probe.errors[1].startswith("size:") and "nan" in probe.errors[1]
+    # Each refusal names the shape it refuses, then the field.
+    assert probe.errors[0].startswith("hexagon: shape:"), probe.errors[0]
+    assert probe.errors[1].startswith("star: size:") and "nan" in probe.errors[1], probe.errors[1]
     assert probe.programs == []
     assert server.alive()
     probe.publish(shape="car", x=100.0, y=100.0, size=60.0, reverse=True)
@@ -299,7 +300,7 @@ def test_draw_action_forwards_to_run_program(start_server, probe):
                          what="draw goal acceptance")
     assert handle.accepted
     wrapped = wait_future(handle.get_result_async(), what="draw result")
-    assert wrapped.status == GoalStatus.STATUS_SUCCEEDED, wrapped.result.message
+    assert wrapped.status == GoalStatus.STATUS_SUCCEEDED, server.output()
     assert wrapped.result.success
     assert wrapped.result.message == "program done"
     assert (wrapped.result.x_mm, wrapped.result.y_mm) == (12.5, 34.5)

@@ -116,7 +116,7 @@ def test_path_grows_and_diagnostics_follow_the_link(tmp_path):
     node.create_subscription(Path, "planned_path", keep(planned, lambda m: [(p.pose.position.x, p.pose.position.y)
                                                                             for p in m.poses]), latched)
     node.create_subscription(Marker, "pen", keep(pens, lambda m: (m.pose.position.x, m.header.frame_id)), 10)
-    node.create_subscription(PointStamped, "position", keep(positions, lambda m: (m.point.x, m.point.y)), 10)
+    node.create_subscription(PointStamped, "position", keep(positions, lambda m: (m.point.x * 1000, m.point.y * 1000)), 10)   # m -> mm
     node.create_subscription(DiagnosticArray, "/diagnostics", keep(diags, lambda m: {
         s.name: (s.level, s.message, {kv.key: kv.value for kv in s.values}) for s in m.status}), 10)
     pub = node.create_publisher(String, "program", 10)

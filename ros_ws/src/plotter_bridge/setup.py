@@ -11,6 +11,7 @@ setup(
         ('share/' + package_name, ['package.xml']),
         ('share/' + package_name + '/rviz', ['rviz/plotter.rviz']),
         ('share/' + package_name + '/launch', ['launch/plotter.launch.py']),
+        ('share/' + package_name + '/config', ['config/plotter.yaml']),
     ],
     install_requires=['setuptools'],
     zip_safe=True,

@@ -19,19 +19,28 @@ same names the streamer uses in its namespace::
     ros2 action send_goal --feedback /plotter/draw plotter_interfaces/action/DrawShape \\
         "{shape: {shape: car, x: 100.0, y: 100.0, size: 60.0, reverse: true}}"
 
-Topic: every ``shape`` message is validated and built (see
-plotter_shapes.geometry for the figures); the program text (G-code lines
-joined by newlines) is published on ``program``, which the streamer runs. A
-bad message (unknown shape, NaN/infinite numbers, size out of range...) is
-logged and its reason, e.g. ``"size: must be a finite number, got nan"``, is
-published on ``shape_error``; the node keeps running.
+Topic: every ``shape`` message is validated, built (see
+plotter_shapes.geometry for the figures) and checked against the work area
+(``x_min`` .. ``y_max``, the streamer's parameters of the same names, from
+config/plotter.yaml); the program text (G-code lines joined by newlines,
+the first a comment naming the shape) is published on ``program``, which
+the streamer runs. A shape that cannot be drawn (unknown shape, NaN/infinite
+numbers, size out of range, does not fit the work area...) is logged at WARN
+and its reason, prefixed with the shape, e.g. ``"star: size: must be a
+finite number, got nan"``, is published on ``shape_error``; the node keeps
+running.
 
-Action: a ``draw`` goal is built the same way and sent as a ``run_program``
-goal to the streamer; its feedback (progress, line, pen position) is relayed,
-and cancelling the ``draw`` goal cancels the ``run_program`` goal. The result
-carries the streamer's outcome and final pen position. A bad shape aborts the
-goal with the reason in ``message`` (and on ``shape_error``); so does a missing
-streamer (no ``run_program`` server within ``server_timeout`` seconds).
+Action: ``draw`` goals are drawn one at a time, in the order they were
+accepted (the feedback of a waiting goal says how many jobs are ahead; past
+``queue_limit`` waiting goals a new one is rejected with a warning; a goal
+cancelled while it waits is never drawn). Each is built and checked the
+same way and sent as a ``run_program`` goal to the streamer; its feedback
+(progress, line, pen position) is relayed, and cancelling the ``draw`` goal
+cancels the ``run_program`` goal. The result carries the streamer's outcome
+and final pen position. A bad shape aborts the goal with the reason in
+``message`` (and on ``shape_error``); so does a missing streamer (no
+``run_program`` server within ``server_timeout`` seconds). A finished
+drawing is logged at INFO with its time; a cancel is INFO too.
 
 Defaults rule: message fields cannot be "not given", so a goal with
 ``size == 0`` gets ``default_size``, and a goal at ``x == 0`` and ``y == 0``
@@ -41,29 +50,33 @@ on the work area's corner could never be drawn, so ``{shape: star, size:
 (x, y). ``feed == 0`` means ``default_feed``.
 
 Parameters: ``default_feed`` (mm/min, 1500), ``default_size`` (mm, 40),
-``work_x`` / ``work_y`` (mm, 100 / 100), ``server_timeout`` (s, 2.0).
+``work_x`` / ``work_y`` (mm, 100 / 100), ``server_timeout`` (s, 2.0), the
+work area ``x_min``, ``x_max``, ``y_min``, ``y_max`` (mm, 0 / 200 / 0 / 200),
+``queue_limit`` (16); all but ``queue_limit`` may change while it runs.
 """
 
 from __future__ import annotations
 
-import math
 import sys
-import threading
 import time
 import traceback
-from typing import Optional
+from dataclasses import dataclass, field
+from typing import Dict, Optional
 
 from action_msgs.msg import GoalStatus
-from rcl_interfaces.msg import ParameterDescriptor, SetParametersResult
 from rclpy.action import ActionClient, ActionServer, CancelResponse, GoalResponse
-from rclpy.callback_groups import ReentrantCallbackGroup
+from rclpy.callback_groups import MutuallyExclusiveCallbackGroup, ReentrantCallbackGroup
 from rclpy.node import Node
+from rclpy.task import Future
 from std_msgs.msg import String
 
 from plotter_interfaces.action import DrawShape, RunProgram
 from plotter_interfaces.msg import ShapeGoal
 
-from plotter_bridge.nodes.main import run_node
+from plotter_bridge.gcode.limits import WorkArea
+from plotter_bridge.nodes.jobs import JobQueue, Waker, Worker
+from plotter_bridge.nodes.main import DEFAULT_NAMESPACE, run_node
+from plotter_bridge.nodes.params import COORDINATE, WORK_AREA, NodeParameters, ParamSpec, check_work_area
 
 from plotter_shapes.geometry import (
     DEFAULT_FEED_MM_MIN,
@@ -74,15 +87,37 @@ from plotter_shapes.geometry import (
     ShapeError,
     goal_program,
 )
+from plotter_shapes.work_area import outside
 
 NODE_NAME = "shape_server"
-#: Namespace used when the node is started without a namespace remap.
-DEFAULT_NAMESPACE = "/plotter"
-#: How often a waiting ``draw`` goal looks at cancel requests (s).
-_POLL_S = 0.05
-#: How long the streamer's action server may be missing during a run before
-#: the ``draw`` goal is aborted (s).
+#: How long the streamer's action server may be missing during a drawing
+#: before the ``draw`` goal is aborted (s).
 _SERVER_LOST_S = 5.0
+
+SPECS = (
+    ParamSpec("default_feed", DEFAULT_FEED_MM_MIN, "feed of a shape whose feed is 0", "mm/min",
+              low=0.0, above=True, high=MAX_FEED_MM_MIN),
+    ParamSpec("default_size", DEFAULT_SIZE_MM, "size of a shape whose size is 0: radius of a circle or arc, "
+              "overall width of the other figures", "mm", low=MIN_SIZE_MM, high=MAX_SIZE_MM),
+    ParamSpec("work_x", 100.0, "X of a shape at x = y = 0 (the work area's centre)", "mm",
+              low=-COORDINATE, high=COORDINATE),
+    ParamSpec("work_y", 100.0, "Y of a shape at x = y = 0 (the work area's centre)", "mm",
+              low=-COORDINATE, high=COORDINATE),
+    ParamSpec("server_timeout", 2.0, "how long a draw goal waits for the streamer's run_program action server",
+              "s", low=0.0, above=True, high=3600.0),
+    *WORK_AREA,
+    ParamSpec("queue_limit", 16, "draw goals that may wait for their turn; more are rejected", "goals",
+              low=1, high=1000, read_only=True),
+)
+
+
+@dataclass
+class _Drawing:
+    """A draw goal's run_program goal; `ended` completes with its wrapped
+    result, or None when the streamer went away."""
+    handle: Optional[object] = None
+    ended: Future = field(default_factory=Future)
+    missing_since: Optional[float] = None
 
 
 class ShapeServer(Node):
@@ -90,47 +125,12 @@ class ShapeServer(Node):
 
     def __init__(self, *, namespace: str = DEFAULT_NAMESPACE, **kwargs) -> None:
         super().__init__(NODE_NAME, namespace=namespace, **kwargs)
+        self.params = NodeParameters(self, SPECS, cross=check_work_area)
         self._group = ReentrantCallbackGroup()
-
-        self.add_on_set_parameters_callback(self._check_parameters)
-        self.declare_parameter(
-            "default_feed", DEFAULT_FEED_MM_MIN,
-            ParameterDescriptor(
-                description="Feed (mm/min) of a shape whose feed is 0.",
-                additional_constraints=f"0 < default_feed <= {MAX_FEED_MM_MIN:g}",
-            ),
-        )
-        self.declare_parameter(
-            "default_size", DEFAULT_SIZE_MM,
-            ParameterDescriptor(
-                description="Size (mm) of a shape whose size is 0: radius of a "
-                            "circle or arc, overall width of the other figures.",
-                additional_constraints=f"{MIN_SIZE_MM:g} <= default_size <= {MAX_SIZE_MM:g}",
-            ),
-        )
-        self.declare_parameter(
-            "work_x", 100.0,
-            ParameterDescriptor(
-                description="X (mm) of the anchor of a shape with size 0 at x = y = 0 "
-                            "(the work-area centre).",
-            ),
-        )
-        self.declare_parameter(
-            "work_y", 100.0,
-            ParameterDescriptor(
-                description="Y (mm) of the anchor of a shape with size 0 at x = y = 0 "
-                            "(the work-area centre).",
-            ),
-        )
-        self.declare_parameter(
-            "server_timeout", 2.0,
-            ParameterDescriptor(
-                description="Seconds a draw goal waits for the streamer's run_program "
-                            "action server before it is aborted.",
-                additional_constraints="server_timeout > 0",
-            ),
-        )
-
+        self._waker = Waker(self)
+        self._worker = Worker("draw-wait")
+        self._queue = JobQueue(int(self.params["queue_limit"]))
+        self._drawings: Dict[bytes, _Drawing] = {}     # by goal id
         self._program_pub = self.create_publisher(String, "program", 10)
         self._error_pub = self.create_publisher(String, "shape_error", 10)
         self._shape_sub = self.create_subscription(
@@ -139,67 +139,46 @@ class ShapeServer(Node):
         self._run_client = ActionClient(
             self, RunProgram, "run_program", callback_group=self._group
         )
+        # Goals are answered one at a time, in the order they come, so that
+        # the queue keeps their order.
         self._draw_server = ActionServer(
             self,
             DrawShape,
             "draw",
             execute_callback=self._execute_draw,
-            goal_callback=lambda _goal: GoalResponse.ACCEPT,
-            cancel_callback=lambda _handle: CancelResponse.ACCEPT,
-            callback_group=self._group,
+            goal_callback=self._on_goal,
+            cancel_callback=self._on_cancel,
+            callback_group=MutuallyExclusiveCallbackGroup(),
         )
+        self.create_timer(1.0, self._watch_streamer, callback_group=self._group)
         self.get_logger().info(
             f"ready: '{self.resolve_topic_name('shape')}' -> "
             f"'{self.resolve_topic_name('program')}', action '{self.resolve_topic_name('draw')}'"
         )
 
-    # Parameters -------------------------------------------------------------
-
-    @staticmethod
-    def _check_parameters(params) -> SetParametersResult:
-        for param in params:
-            value = param.value
-            if param.name in ("default_feed", "default_size", "work_x", "work_y",
-                              "server_timeout"):
-                if isinstance(value, bool) or not isinstance(value, (int, float)) \
-                        or not math.isfinite(value):
-                    return SetParametersResult(
-                        successful=False, reason=f"{param.name}: must be a finite number")
-            if param.name == "default_feed" and not 0.0 < value <= MAX_FEED_MM_MIN:
-                return SetParametersResult(
-                    successful=False,
-                    reason=f"default_feed: must be in (0, {MAX_FEED_MM_MIN:g}] mm/min")
-            if param.name == "default_size" and not MIN_SIZE_MM <= value <= MAX_SIZE_MM:
-                return SetParametersResult(
-                    successful=False,
-                    reason=f"default_size: must be in [{MIN_SIZE_MM:g}, {MAX_SIZE_MM:g}] mm")
-            if param.name == "server_timeout" and not value > 0.0:
-                return SetParametersResult(
-                    successful=False, reason="server_timeout: must be positive")
-        return SetParametersResult(successful=True)
-
-    def _float_param(self, name: str) -> float:
-        return float(self.get_parameter(name).value)
-
     # Shapes -----------------------------------------------------------------
 
     def make_program(self, goal: ShapeGoal) -> tuple[str, str]:
-        """(name, G-code text) for a goal; raises ShapeError."""
+        """(name, G-code text) for a goal; raises ShapeError, also for a
+        shape that does not fit the work area."""
+        p = self.params
         name, lines = goal_program(
             goal.shape, goal.x, goal.y, goal.size, goal.clockwise, goal.reverse,
             goal.feed, goal.x2, goal.y2, goal.start_angle, goal.end_angle,
-            default_feed=self._float_param("default_feed"),
-            default_size=self._float_param("default_size"),
-            default_centre=(self._float_param("work_x"), self._float_param("work_y")),
+            default_feed=float(p["default_feed"]),
+            default_size=float(p["default_size"]),
+            default_centre=(float(p["work_x"]), float(p["work_y"])),
         )
-        return name, "\n".join(lines) + "\n"
-
-    def _report_error(self, text: str) -> None:
-        self.get_logger().error(f"shape refused: {text}")
-        self._error_pub.publish(String(data=text))
+        program = "\n".join(lines) + "\n"
+        area = WorkArea(float(p["x_min"]), float(p["x_max"]), float(p["y_min"]), float(p["y_max"]))
+        why = outside(program, area)
+        if why:
+            raise ShapeError(why)
+        return name, program
 
     def _try_make_program(self, goal: ShapeGoal) -> tuple[Optional[tuple[str, str]], str]:
-        """((name, program), "") or (None, reason); reports the reason."""
+        """((name, program), "") or (None, reason); a refusal is logged at
+        WARN and published on shape_error, prefixed with the shape."""
         try:
             return self.make_program(goal), ""
         except ShapeError as exc:
@@ -207,8 +186,13 @@ class ShapeServer(Node):
         except Exception as exc:  # a bad message must never stop the node
             self.get_logger().error(traceback.format_exc())
             reason = f"internal error while building {goal.shape!r}: {exc}"
-        self._report_error(reason)
+        self._refuse(goal.shape, reason)
         return None, reason
+
+    def _refuse(self, shape: str, reason: str) -> None:
+        label = shape.strip()[:40] if shape.strip().isprintable() and shape.strip() else "shape"
+        self.get_logger().warn(f"{label}: refused: {reason}")
+        self._error_pub.publish(String(data=f"{label}: {reason}"))
 
     def _on_shape(self, goal: ShapeGoal) -> None:
         made, _ = self._try_make_program(goal)
@@ -221,7 +205,7 @@ class ShapeServer(Node):
         while self._program_pub.get_subscription_count() == 0 and time.monotonic() < deadline:
             time.sleep(0.02)
         if self._program_pub.get_subscription_count() == 0:
-            self._report_error(f"{name}: no gcode_streamer listens on {self._program_pub.topic_name}")
+            self._refuse(name, f"no gcode_streamer listens on {self._program_pub.topic_name}")
             return
         self._program_pub.publish(String(data=program))
         self.get_logger().info(
@@ -229,30 +213,24 @@ class ShapeServer(Node):
 
     # Action -----------------------------------------------------------------
 
-    def _wait(self, future, goal_handle=None, on_cancel=None) -> bool:
-        """Wait for ``future`` without blocking the executor (other threads
-        serve its callbacks). Calls ``on_cancel`` once when the draw goal is
-        asked to cancel. False if ROS shuts down or the streamer disappears."""
-        done = threading.Event()
-        future.add_done_callback(lambda _f: done.set())
-        cancel_forwarded = False
-        missing_since: Optional[float] = None
-        while not done.wait(_POLL_S):
-            if not self.context.ok():
-                return False
-            if (on_cancel is not None and not cancel_forwarded
-                    and goal_handle is not None and goal_handle.is_cancel_requested):
-                cancel_forwarded = True
-                on_cancel()
-            if self._run_client.server_is_ready():
-                missing_since = None
-            else:
-                now = time.monotonic()
-                if missing_since is None:
-                    missing_since = now
-                elif now - missing_since > _SERVER_LOST_S:
-                    return False
-        return True
+    def _on_goal(self, _goal) -> GoalResponse:
+        if self._queue.full():
+            self.get_logger().warn(
+                f"draw goal rejected: {self._queue.limit} goals already waiting")
+            return GoalResponse.REJECT
+        return GoalResponse.ACCEPT
+
+    def _on_cancel(self, goal_handle) -> CancelResponse:
+        self._queue.withdraw(goal_handle)            # if it waits for its turn
+        drawing = self._drawings.get(bytes(goal_handle.goal_id.uuid))
+        if drawing is not None and drawing.handle is not None:
+            drawing.handle.cancel_goal_async()
+        return CancelResponse.ACCEPT
+
+    def _tell_waiting(self) -> None:
+        for key in self._queue.waiting():
+            if key.is_active:
+                key.publish_feedback(DrawShape.Feedback(jobs_ahead=self._queue.ahead(key)))
 
     def _relay_feedback(self, goal_handle, feedback_msg) -> None:
         inner = feedback_msg.feedback
@@ -263,67 +241,94 @@ class ShapeServer(Node):
             current_line=int(inner.current_line),
             x_mm=float(inner.x_mm),
             y_mm=float(inner.y_mm),
+            jobs_ahead=int(inner.jobs_ahead),
         ))
 
-    def _execute_draw(self, goal_handle) -> DrawShape.Result:
-        result = DrawShape.Result(success=False)
+    def _watch_streamer(self) -> None:
+        """A drawing whose streamer is gone for _SERVER_LOST_S ends."""
+        ready = self._run_client.server_is_ready()
+        now = time.monotonic()
+        for drawing in list(self._drawings.values()):
+            if ready or drawing.handle is None:
+                drawing.missing_since = None
+            elif drawing.missing_since is None:
+                drawing.missing_since = now
+            elif now - drawing.missing_since > _SERVER_LOST_S and not drawing.ended.done():
+                drawing.ended.set_result(None)
+                self._waker.wake()
 
-        def finish(message: str, outcome: str) -> DrawShape.Result:
-            result.message = message
-            if not self.context.ok():
-                # Shutting down: the goal ends with the node.
-                return result
-            if outcome == "succeed":
-                goal_handle.succeed()
-            elif outcome == "canceled":
-                goal_handle.canceled()
-            else:
-                goal_handle.abort()
-                self.get_logger().warning(f"draw aborted: {message}")
-            return result
-
-        made, reason = self._try_make_program(goal_handle.request.shape)
+    async def _execute_draw(self, goal_handle) -> DrawShape.Result:
+        t0 = time.monotonic()
+        shape = goal_handle.request.shape
+        made, reason = self._try_make_program(shape)
         if made is None:
-            return finish(reason, "abort")
+            return self._finish(goal_handle, shape.shape, t0, DrawShape.Result(message=reason), "abort")
         name, program = made
+        turn = self._queue.enter(goal_handle)
+        self._tell_waiting()
+        if not await self._waker.wait(turn):
+            result = DrawShape.Result(message="canceled before it was drawn")
+            return self._finish(goal_handle, name, t0, result, "canceled")
+        drawing = _Drawing()
+        self._drawings[bytes(goal_handle.goal_id.uuid)] = drawing
+        try:
+            result, outcome = await self._draw(goal_handle, name, program, drawing)
+        finally:
+            del self._drawings[bytes(goal_handle.goal_id.uuid)]
+            self._queue.leave(goal_handle)
+            self._tell_waiting()
+        return self._finish(goal_handle, name, t0, result, outcome)
+
+    def _finish(self, goal_handle, name: str, t0: float, result: DrawShape.Result,
+                outcome: str) -> DrawShape.Result:
+        if outcome == "succeed":
+            goal_handle.succeed()
+            self.get_logger().info(f"{name}: drawn in {time.monotonic() - t0:.1f} s")
+        elif outcome == "canceled":
+            goal_handle.canceled()
+            self.get_logger().info(f"{name}: canceled ({result.message})")
+        else:
+            goal_handle.abort()
+            self.get_logger().warn(f"{name}: draw aborted: {result.message}")
+        return result
+
+    async def _draw(self, goal_handle, name: str, program: str,
+                    drawing: _Drawing) -> tuple[DrawShape.Result, str]:
+        """Run the program through the streamer: (result, outcome)."""
         if goal_handle.is_cancel_requested:
-            return finish("cancelled before the program was sent", "canceled")
-
-        timeout = self._float_param("server_timeout")
-        if not self._run_client.wait_for_server(timeout_sec=timeout):
-            return finish(
-                f"G-code streamer not available: no action server "
-                f"'{self.resolve_topic_name('run_program')}' after {timeout:g} s", "abort")
-
-        send_future = self._run_client.send_goal_async(
+            return DrawShape.Result(message="canceled before it was drawn"), "canceled"
+        timeout = float(self.params["server_timeout"])
+        if not await self._waker.wait(self._worker.run(self._run_client.wait_for_server, timeout)):
+            return DrawShape.Result(message=f"G-code streamer not available: no action server "
+                                            f"'{self.resolve_topic_name('run_program')}' after "
+                                            f"{timeout:g} s"), "abort"
+        handle = await self._waker.wait(self._run_client.send_goal_async(
             RunProgram.Goal(program=program, name=name),
             feedback_callback=lambda fb: self._relay_feedback(goal_handle, fb),
-        )
-        if not self._wait(send_future):
-            return finish("no answer from the streamer to the run_program goal", "abort")
-        run_handle = send_future.result()
-        if run_handle is None or not run_handle.accepted:
-            return finish(f"the streamer refused program '{name}'", "abort")
-        self.get_logger().info(f"drawing '{name}'")
-
-        result_future = run_handle.get_result_async()
-        if not self._wait(result_future, goal_handle, run_handle.cancel_goal_async):
-            if not self.context.ok():
-                return finish("shape server shut down while drawing", "abort")
-            run_handle.cancel_goal_async()
-            return finish("lost the streamer while drawing", "abort")
-
-        wrapped = result_future.result()
-        run = wrapped.result
-        result.success = bool(run.success) and wrapped.status == GoalStatus.STATUS_SUCCEEDED
-        result.x_mm = float(run.x_mm)
-        result.y_mm = float(run.y_mm)
-        if result.success:
-            return finish(run.message or "done", "succeed")
-        message = run.message or f"run_program ended with status {wrapped.status}"
+        ))
+        if handle is None or not handle.accepted:
+            return DrawShape.Result(message=f"the streamer refused program '{name}'"), "abort"
+        drawing.handle = handle
         if goal_handle.is_cancel_requested:
-            return finish(message, "canceled")
-        return finish(message, "abort")
+            handle.cancel_goal_async()
+        self.get_logger().info(f"drawing '{name}'")
+        handle.get_result_async().add_done_callback(
+            lambda f: drawing.ended.done() or drawing.ended.set_result(f.result()))
+        wrapped = await self._waker.wait(drawing.ended)
+        if wrapped is None:
+            handle.cancel_goal_async()
+            return DrawShape.Result(message="lost the streamer while drawing"), "abort"
+        run = wrapped.result
+        success = bool(run.success) and wrapped.status == GoalStatus.STATUS_SUCCEEDED
+        result = DrawShape.Result(success=success, x_mm=float(run.x_mm), y_mm=float(run.y_mm),
+                                  message=run.message or f"run_program ended with status {wrapped.status}")
+        if success:
+            return result, "succeed"
+        return result, "canceled" if goal_handle.is_cancel_requested else "abort"
+
+    def destroy_node(self) -> None:
+        self._worker.shutdown()
+        super().destroy_node()
 
 
 def main(args: Optional[list[str]] = None) -> int:

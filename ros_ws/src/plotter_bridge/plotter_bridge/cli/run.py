@@ -293,7 +293,8 @@ def run_watch(args: argparse.Namespace, out: TextIO = sys.stdout) -> int:
     def show(msg: PointStamped) -> None:
         seen[0] += 1
         s = msg.header.stamp
-        out.write(f"{s.sec}.{s.nanosec:09d}  X {msg.point.x:9.3f}  Y {msg.point.y:9.3f} mm\n")
+        # The topic is in metres (REP-103); people read a plotter in millimetres.
+        out.write(f"{s.sec}.{s.nanosec:09d}  X {msg.point.x * 1000:9.3f}  Y {msg.point.y * 1000:9.3f} mm\n")
         out.flush()
 
     node.create_subscription(PointStamped, topic, show, 10)

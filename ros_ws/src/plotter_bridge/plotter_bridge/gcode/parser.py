@@ -410,3 +410,24 @@ def load_program(data: bytes, rapid_rate: float = DEFAULT_RAPID_RATE,
 
 def moves_of(items: List[Item]) -> List[Move]:
     return [item for item in items if isinstance(item, Move)]
+
+
+def program_name(text: str, default: str = "program", limit: int = 60) -> str:
+    """A program's name for logs and errors: its leading comment, as the
+    shape server and most generators write one ("(star)", "; logo.svg"),
+    else `default`."""
+    for raw in text.splitlines():
+        line = raw.strip()
+        if not line or line == "%":
+            continue
+        if line.startswith("(") and ")" in line:
+            name = line[1:line.index(")")]
+        elif line.startswith(";"):
+            name = line[1:]
+        else:
+            return default
+        name = " ".join(name.split())
+        if name and name.isprintable():
+            return name[:limit]
+        return default
+    return default

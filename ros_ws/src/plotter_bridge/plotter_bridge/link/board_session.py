@@ -3,8 +3,11 @@
 BoardSession owns the port and the BoardLink, and decides what happens when
 things go wrong:
 
-- The port vanishes: the state is DISCONNECTED, the job is kept, and the
-  port is opened again (same path) with growing back-off.  When it answers,
+- The port cannot be opened, or vanishes: the state is DISCONNECTED, the
+  job is kept, and the port is opened again (same path) with growing
+  back-off: up to `backoff_max` apart while a job waits for the port, up to
+  `backoff_idle` apart when none does.  Each failed attempt goes to
+  `log_error` with its reason and the next attempt's delay.  When it answers,
   the link holds every line until a status report shows where the board is.
   If the board still counts where it did, the job goes on from the board's
   `N`: what it had queued ran once, what it lost is sent again.  If the port
@@ -44,7 +47,8 @@ class SessionConfig:
     baud: int = 0                     # the line's baud rate: polling is held to a share of it (board_link.py)
     reconnect_timeout: float = 30.0   # a job waits this long for a vanished port
     backoff_min: float = 0.1          # first wait before opening the port again
-    backoff_max: float = 2.0
+    backoff_max: float = 2.0          # longest wait while a job waits for the port
+    backoff_idle: float = 10.0        # longest wait when no job does
     rt_retry: float = 0.15            # send an unconfirmed real-time byte again after this
     rt_timeout: float = 3.0           # give up confirming it
 
@@ -121,13 +125,16 @@ class BoardSession:
                  clock: Callable[[], float] = time.monotonic,
                  on_status: Optional[Callable[[Status], None]] = None,
                  on_change: Optional[Callable[[], None]] = None,
-                 log: Callable[[str], None] = lambda text: None) -> None:
+                 log: Callable[[str], None] = lambda text: None,
+                 log_error: Callable[[str], None] = lambda text: None) -> None:
         self._open_port = open_port
         self.config = config
         self.clock = clock
         self.on_status = on_status
         self.on_change = on_change          # connection state or error changed
         self.log = log
+        self.log_error = log_error
+        self.open_failures = 0              # failed attempts since the port was last open
         self.lock = threading.RLock()
         self._cond = threading.Condition(self.lock)
         self.port: Optional[Port] = None
@@ -169,10 +176,9 @@ class BoardSession:
         try:
             port = self._open_port()
         except Exception as exc:
-            self._next_open = now + self._backoff
-            self._backoff = min(self._backoff * 2, self.config.backoff_max)
-            self._set_error(f"disconnected: {exc}", quiet=True)
+            self._open_failed(now, exc)
             return
+        self.open_failures = 0
         self.port = port
         self.connection = CONNECTING
         if self.link is None:
@@ -187,6 +193,16 @@ class BoardSession:
             self.link.attach(port)
         self.log("port open, waiting for the board's status")
         self._changed()
+
+    def _open_failed(self, now: float, exc: Exception) -> None:
+        job = self.job
+        waiting = job is not None and job.result is None
+        wait = self._backoff
+        self._next_open = now + wait
+        self._backoff = min(self._backoff * 2, self.config.backoff_max if waiting else self.config.backoff_idle)
+        self.open_failures += 1
+        self._set_error(str(exc))
+        self.log_error(f"{exc} (attempt {self.open_failures}; trying again in {wait:.1f} s)")
 
     def _lost(self, exc: Exception) -> None:
         self.log(f"serial link lost: {exc}")
@@ -500,11 +516,10 @@ class BoardSession:
         return (True, "origin set") if result == "" else (False, result)
 
     # --- misc --------------------------------------------------------------------
-    def _set_error(self, text: str, quiet: bool = False) -> None:
+    def _set_error(self, text: str) -> None:
         if text != self.last_error:
             self.last_error = text
-            if not quiet:
-                self._changed()
+            self._changed()
 
     def _changed(self) -> None:
         if self.on_change:

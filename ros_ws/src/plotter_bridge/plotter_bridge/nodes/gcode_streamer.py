@@ -1,52 +1,61 @@
 """gcode_streamer: runs G-code programs on the plotter.
 
-Takes programs from the `program` topic (std_msgs/String; run one after the
-other) and from the `run_program` action (plotter_interfaces/RunProgram,
-with progress and cancel).  Each program is parsed and checked against the
-work area completely before anything moves; then it is converted to board
-commands and streamed through the serial bridge's `stream_commands` action,
-which keeps the board's queue full.
+Takes programs from the `program` topic (std_msgs/String) and from the
+`run_program` action (plotter_interfaces/RunProgram, with progress and
+cancel), and runs them one at a time, in the order they arrive, topic and
+action alike: a goal that comes while a job runs waits its turn (its
+feedback says how many jobs are ahead); past `queue_limit` waiting jobs a
+goal is rejected and a topic program dropped, each with a warning.  A goal
+cancelled while it waits leaves the queue and never moves the pen.
+
+Each program is parsed and checked against the work area completely before
+anything moves; then it is converted to board commands and streamed through
+the serial bridge's `stream_commands` action, which keeps the board's queue
+full.  A program that cannot run is refused with the reason: for a goal in
+its result (aborted), for a topic program on `program_error`, prefixed with
+the program's name (its leading comment, which shape_server writes, or
+"program"); the node logs every refusal at WARN and every finished job at
+INFO with its time.
 
 Every job is journalled (link/journal.py, parameter `journal_dir`) before it is
 sent, with the board's progress as the bridge reports it.  The streamer
 renews the job's lease on `job_lease` while it runs; if the streamer dies the
 lease runs out and the bridge stops the job at a command boundary.  A
 `run_program` goal with `resume` set to the job's id (`plotter resume ID`)
-then finishes it from the first command not completed.
+then finishes it from the first command not completed, after asking the
+bridge (`job_status`) how far the job got.
 
 With `z_mode:=axis` (a machine with a third axis, firmware ZAXIS=1) G-code Z
 moves that axis, from where the board reports it, inside `z_min`..`z_max`
 (gcode/parser.py says in which order with X and Y); `z_mode:=pen`, the default,
 keeps Z for the pen.
 
-Inputs are checked before anything moves: an oversized or malformed program,
-a bad name or an unknown job id is refused with the reason (an aborted goal,
-or a message on `program_error` for the topic), and the node goes on.
+Parameters other than the machine's may change while the node runs (`ros2
+param set`); a change applies from the next job on.
 """
 from __future__ import annotations
 
-import math
-import queue
 import sys
 import threading
 import time
+import traceback
 import uuid
 from dataclasses import dataclass, replace
-from typing import Optional, Tuple
+from typing import Optional
 
-from action_msgs.msg import GoalStatus
-from rcl_interfaces.msg import ParameterDescriptor
 from rclpy.action import ActionClient, ActionServer, CancelResponse, GoalResponse
-from rclpy.action.client import ClientGoalHandle
-from rclpy.callback_groups import ReentrantCallbackGroup
+from rclpy.action.server import ServerGoalHandle
+from rclpy.callback_groups import MutuallyExclusiveCallbackGroup, ReentrantCallbackGroup
 from rclpy.node import Node
 from std_msgs.msg import String
 from unique_identifier_msgs.msg import UUID
 
 from plotter_interfaces.action import RunProgram, StreamCommands
 from plotter_interfaces.msg import BoardState
+from plotter_interfaces.srv import JobStatus
 
 from plotter_bridge.gcode.limits import WorkArea
+from plotter_bridge.gcode.parser import program_name
 from plotter_bridge.gcode.types import GCodeError
 from plotter_bridge.link.journal import (DONE, INTERRUPTED, RUNNING, Journal, JobRecord, Progress,
                                          default_journal_dir, resume_commands)
@@ -54,13 +63,13 @@ from plotter_bridge.link.protocol import MAX_RATE
 from plotter_bridge.motion.compiler import MAX_PROGRAM_BYTES, StreamerConfig, compile_program
 from plotter_bridge.motion.planner import link_baud
 
-from .main import run_node
-from .params import declare_machine
+from .jobs import JobQueue, Waker, Worker
+from .main import DEFAULT_NAMESPACE, run_node
+from .params import (COORDINATE, MACHINE, WORK_AREA, NodeParameters, ParamSpec, check_machine, check_work_area,
+                     machine_of, ordered)
 from .qos import latched
 
-DEFAULT_NAMESPACE = "/plotter"   # `-r __ns:=/plotter2` runs a second plotter beside it
 MAX_NAME_LEN = 200
-TOPIC_QUEUE = 8                  # programs from the topic waiting their turn
 
 
 @dataclass
@@ -69,6 +78,7 @@ class Outcome:
     message: str
     lines_done: int = 0
     job_id: str = ""
+    canceled: bool = False
 
 
 def check_request(program: str, name: str, resume: str) -> Optional[str]:
@@ -85,65 +95,80 @@ def check_request(program: str, name: str, resume: str) -> Optional[str]:
     return None
 
 
+SPECS = (
+    ParamSpec("rapid_feed", 6000.0, "G0 travel rate", "mm/min", low=0.0, above=True, high=1e5),
+    *WORK_AREA,
+    ParamSpec("z_min", -50.0, "z_mode axis: least Z, from the power-on origin", "mm",
+              low=-COORDINATE, high=COORDINATE),
+    ParamSpec("z_max", 50.0, "z_mode axis: greatest Z, from the power-on origin", "mm",
+              low=-COORDINATE, high=COORDINATE),
+    ParamSpec("acceleration", 1000.0, "largest acceleration (within the firmware's ramp)", "mm/s^2",
+              low=0.0, above=True, high=1e5),
+    ParamSpec("junction_deviation", 0.05, "corner rule of the look-ahead planner", "mm", low=0.0, high=10.0),
+    ParamSpec("lookahead", True, "plan speeds across commands; false stops at every command"),
+    ParamSpec("link_baud", -1, "slow commands shorter than their time on the serial link down to its pace at "
+                               "this baud rate (-1: serial_bridge's, 0: off)", "baud", low=-1, high=1_000_000),
+    ParamSpec("tolerance", 0.1, "hanging machine: largest pen deviation from the programmed path", "mm",
+              low=0.0, above=True, high=10.0),
+    *MACHINE,
+    ParamSpec("journal_dir", "", "directory of the job journal ('' = $ROS_HOME/plotter_journal)", read_only=True),
+    ParamSpec("lease", 2.0, "how long the bridge goes on with a job after this node stops renewing it", "s",
+              low=0.1, high=3600.0),
+    ParamSpec("queue_limit", 16, "jobs that may wait for their turn; more are refused", "jobs",
+              low=1, high=1000, read_only=True),
+)
+
+
+def check_streamer(values) -> Optional[str]:
+    return check_work_area(values) or ordered(values, (("z_min", "z_max"),)) or check_machine(values)
+
+
+def streamer_config(values) -> StreamerConfig:
+    """The compiler's settings from the node's parameter values."""
+    machine = machine_of(values)
+    v = {k: float(values[k]) for k in ("rapid_feed", "x_min", "x_max", "y_min", "y_max", "z_min", "z_max",
+                                        "acceleration", "junction_deviation", "tolerance")}
+    return StreamerConfig(machine.steps_per_mm, v["rapid_feed"],
+                          WorkArea(v["x_min"], v["x_max"], v["y_min"], v["y_max"], v["z_min"], v["z_max"]),
+                          v["acceleration"], v["junction_deviation"], bool(values["lookahead"]),
+                          machine.kind, machine.hanging, v["tolerance"],
+                          z_mode=machine.z_mode, z_steps_per_mm=machine.z_steps_per_mm)
+
+
 class GCodeStreamer(Node):
     def __init__(self, *, namespace: str = DEFAULT_NAMESPACE, **kwargs) -> None:
         super().__init__("gcode_streamer", namespace=namespace, **kwargs)
-        d = ParameterDescriptor
-        self.declare_parameter("rapid_feed", 6000.0, d(description="G0 travel rate, mm/min"))
-        self.declare_parameter("x_min", 0.0, d(description="work area, mm from the power-on origin"))
-        self.declare_parameter("x_max", 200.0, d(description="work area, mm"))
-        self.declare_parameter("y_min", 0.0, d(description="work area, mm"))
-        self.declare_parameter("y_max", 200.0, d(description="work area, mm"))
-        self.declare_parameter("z_min", -50.0, d(description="z_mode axis: travel of Z, mm from the power-on origin"))
-        self.declare_parameter("z_max", 50.0, d(description="z_mode axis: travel of Z, mm"))
-        self.declare_parameter("acceleration", 1000.0, d(description="maximum acceleration, mm/s^2 (within the firmware's ramp)"))
-        self.declare_parameter("junction_deviation", 0.05, d(description="corner rule of the look-ahead planner, mm"))
-        self.declare_parameter("lookahead", True, d(description="plan speeds across commands; false stops at every command"))
-        self.declare_parameter("link_baud", -1, d(description="slow commands shorter than their time on the serial link "
-                                                          "down to its pace (planner.cap_for_link) at this baud rate; "
-                                                          "-1: serial_bridge's, 0: off"))
-        self.declare_parameter("tolerance", 0.1, d(description="hanging machine: largest pen deviation from the programmed path, mm"))
-        self.machine = declare_machine(self)
-        self.declare_parameter("journal_dir", "", d(description="directory of the job journal ('' = $ROS_HOME/plotter_journal)"))
-        self.declare_parameter("lease", 2.0, d(description="seconds the bridge goes on with a job after this node stops renewing it"))
-        self.config = self._read_config()
-        self.lease = float(self.get_parameter("lease").value)
-        if not (math.isfinite(self.lease) and 0.1 <= self.lease <= 3600.0):
-            raise ValueError("lease must be 0.1..3600 s")
-        self.journal = Journal(str(self.get_parameter("journal_dir").value) or default_journal_dir())
+        self.params = NodeParameters(self, SPECS, cross=check_streamer, on_change=self._apply)
+        self.machine = machine_of(self.params.values())
+        self.config = streamer_config(self.params.values())
+        self.journal = Journal(str(self.params["journal_dir"]) or default_journal_dir())
         group = ReentrantCallbackGroup()
+        self._waker = Waker(self)
+        self._worker = Worker("gcode-job")
+        self._queue = JobQueue(int(self.params["queue_limit"]))
         self.pub_error = self.create_publisher(String, "program_error", 10)
         self.create_subscription(String, "program", self._on_program, 10, callback_group=group)
         self._bridge = ActionClient(self, StreamCommands, "stream_commands", callback_group=group)
+        self._job_status = self.create_client(JobStatus, "job_status", callback_group=group)
+        # Goals are answered one at a time, in the order they come (a mutually
+        # exclusive group), so that the queue keeps their order.
         self._server = ActionServer(self, RunProgram, "run_program", self._execute,
-                                    goal_callback=lambda _: GoalResponse.ACCEPT,
-                                    cancel_callback=lambda _: CancelResponse.ACCEPT,
-                                    callback_group=group)
+                                    goal_callback=self._on_goal, cancel_callback=self._on_cancel,
+                                    callback_group=MutuallyExclusiveCallbackGroup())
         self._board: Optional[BoardState] = None
         self._board_changed = threading.Condition()
         self.create_subscription(BoardState, "state", self._on_state, latched(), callback_group=group)
-        self._busy = threading.Lock()      # one program on the board at a time
         self._last_xy = (0.0, 0.0)
         self.pub_lease = self.create_publisher(String, "job_lease", 10)
-        self._topic_jobs: "queue.Queue[str]" = queue.Queue(TOPIC_QUEUE)
-        self._worker = threading.Thread(target=self._topic_worker, daemon=True)
-        self._worker.start()
 
-    def _read_config(self) -> StreamerConfig:
-        g = lambda n: float(self.get_parameter(n).value)  # noqa: E731
-        names = ("steps_per_mm", "rapid_feed", "x_min", "x_max", "y_min", "y_max", "z_min", "z_max",
-                 "acceleration", "junction_deviation", "tolerance")
-        v = dict(zip(names, (g(n) for n in names)))
-        if not all(math.isfinite(x) for x in v.values()) or v["steps_per_mm"] <= 0 or v["rapid_feed"] <= 0 \
-                or v["x_min"] >= v["x_max"] or v["y_min"] >= v["y_max"] or v["z_min"] >= v["z_max"] \
-                or v["acceleration"] <= 0 or v["junction_deviation"] < 0 or v["tolerance"] <= 0:
-            raise ValueError(f"bad gcode_streamer parameters: {v}")
-        return StreamerConfig(v["steps_per_mm"], v["rapid_feed"],
-                              WorkArea(v["x_min"], v["x_max"], v["y_min"], v["y_max"], v["z_min"], v["z_max"]),
-                              v["acceleration"], v["junction_deviation"],
-                              bool(self.get_parameter("lookahead").value),
-                              self.machine.kind, self.machine.hanging, v["tolerance"],
-                              z_mode=self.machine.z_mode, z_steps_per_mm=self.machine.z_steps_per_mm)
+    def _apply(self, names) -> None:
+        self.config = streamer_config(self.params.values())
+        self.get_logger().info("parameters applied from the next job on: "
+                               + ", ".join(f"{n} = {self.params[n]}" for n in names))
+
+    @property
+    def lease(self) -> float:
+        return float(self.params["lease"])
 
     def _on_state(self, msg: BoardState) -> None:
         with self._board_changed:
@@ -158,43 +183,79 @@ class GCodeStreamer(Node):
                 lambda: self._board is not None and self._board.state != BoardState.DISCONNECTED, timeout)
             return self._board
 
-    # --- programs from the topic ---------------------------------------------
-    def _on_program(self, msg: String) -> None:
-        why = check_request(msg.data, "topic", "")
-        if why is None:
-            try:
-                self._topic_jobs.put_nowait(msg.data)
-            except queue.Full:
-                why = f"{TOPIC_QUEUE} programs already waiting: program dropped"
-        if why:
-            self.get_logger().error(f"program refused: {why}")
-            self.pub_error.publish(String(data=why))
+    def _refused(self, name: str, why: str) -> None:
+        self.get_logger().warn(f"{name}: refused: {why}")
 
-    def _topic_worker(self) -> None:
-        while self.context.ok():
-            try:
-                text = self._topic_jobs.get(timeout=0.5)
-            except queue.Empty:
-                continue
-            try:
-                out = self.run(text, "topic", None)
-            except Exception as exc:  # a bad program must never stop the worker
-                out = Outcome(False, f"internal error: {exc}")
-            if not out.success:
-                self.pub_error.publish(String(data=out.message))
+    # --- one job at a time ---------------------------------------------------------
+    async def _run_in_turn(self, key, text: str, name: str, goal_handle, resume: str) -> Outcome:
+        """Wait for the job's turn, then run it on the worker thread."""
+        turn = self._queue.enter(key)
+        self._tell_waiting()
+        if not await self._waker.wait(turn):
+            return Outcome(False, "canceled before it ran", canceled=True)
+        try:
+            if goal_handle is not None and goal_handle.is_cancel_requested:
+                return Outcome(False, "canceled before it ran", canceled=True)
+            return await self._waker.wait(self._worker.run(self._timed_run, text, name, goal_handle, resume))
+        except Exception as exc:  # a bug must not leave the job without an outcome
+            self.get_logger().error(f"{name}: internal error: {exc!r}\n{traceback.format_exc()}")
+            return Outcome(False, f"internal error: {exc}")
+        finally:
+            self._queue.leave(key)
+            self._tell_waiting()
+
+    def _tell_waiting(self) -> None:
+        """Feedback to the goals that wait: how many jobs are ahead of each."""
+        for key in self._queue.waiting():
+            if isinstance(key, ServerGoalHandle) and key.is_active:
+                key.publish_feedback(RunProgram.Feedback(jobs_ahead=self._queue.ahead(key)))
+
+    def _timed_run(self, text: str, name: str, goal_handle, resume: str) -> Outcome:
+        t0 = time.monotonic()
+        out = self.run(text, name, goal_handle, resume)
+        if out.success:
+            self.get_logger().info(f"{name}: {out.message} in {time.monotonic() - t0:.1f} s")
+        elif out.canceled:
+            self.get_logger().info(f"{name}: canceled after {time.monotonic() - t0:.1f} s")
+        else:
+            self._refused(name, out.message)
+        return out
+
+    # --- programs from the topic ---------------------------------------------
+    async def _on_program(self, msg: String) -> None:
+        name = program_name(msg.data)
+        why = check_request(msg.data, name, "")
+        if why is None and self._queue.full():
+            why = f"{self._queue.limit} jobs already waiting: program dropped"
+        if why is None:
+            out = await self._run_in_turn(object(), msg.data, name, None, "")
+            why = None if out.success else out.message
+        elif why:
+            self._refused(name, why)
+        if why:
+            self.pub_error.publish(String(data=f"{name}: {why}"))
 
     # --- the action ------------------------------------------------------------
-    def _execute(self, goal_handle):
+    def _on_goal(self, goal) -> GoalResponse:
+        if self._queue.full():
+            self.get_logger().warn(f"run_program goal {goal.name or 'program'!r} rejected: "
+                                   f"{self._queue.limit} jobs already waiting")
+            return GoalResponse.REJECT
+        return GoalResponse.ACCEPT
+
+    def _on_cancel(self, goal_handle) -> CancelResponse:
+        self._queue.withdraw(goal_handle)      # if it waits; a running job sees the request itself
+        return CancelResponse.ACCEPT
+
+    async def _execute(self, goal_handle):
         req = goal_handle.request
-        name = req.name or "program"
+        name = req.name or program_name(req.program)
         why = check_request(req.program, name, req.resume)
-        try:
-            out = Outcome(False, why) if why else self.run(req.program, name, goal_handle, req.resume)
-        except Exception as exc:  # never leave a goal hanging
-            self.get_logger().error(f"{name}: internal error: {exc}")
-            out = Outcome(False, f"internal error: {exc}")
-        if not out.success:
-            self.get_logger().error(out.message)
+        if why:
+            self._refused(name, why)
+            out = Outcome(False, why)
+        else:
+            out = await self._run_in_turn(goal_handle, req.program, name, goal_handle, req.resume)
         result = RunProgram.Result()
         result.success, result.message, result.lines_done = out.success, out.message, out.lines_done
         result.job_id = out.job_id
@@ -208,32 +269,32 @@ class GCodeStreamer(Node):
         return result
 
     def run(self, text: str, name: str, goal_handle, resume: str = "") -> Outcome:
-        """Run one program, or resume a journalled job."""
-        with self._busy:
-            board = self._board_state()
-            if board is None or board.state == BoardState.DISCONNECTED:
-                return Outcome(False, "board not connected (no state from serial_bridge)")
-            if not board.position_known:
-                return Outcome(False, "position unknown after a board reset: call set_origin first")
-            start = (board.x_steps, board.y_steps)
-            if resume:
-                return self._resume(resume, board, goal_handle)
-            try:
-                config = replace(self.config, link_seq=board.next_seq,
-                                 link_baud=link_baud(int(self.get_parameter("link_baud").value), board.link_baud))
-                commands = compile_program(text, config, start, board.z_steps)
-            except GCodeError as exc:
-                return Outcome(False, str(exc))
-            if not commands:
-                return Outcome(True, "nothing to do")
-            z_line = next((c.line for c in commands if c.verb == "Z"), None)
-            if z_line is not None and not board.has_z:
-                return Outcome(False, f"line {z_line}: a Z move, and the board reports no Z axis "
-                                      f"(firmware built without ZAXIS=1)")
-            rapid = int(min(MAX_RATE, self.config.rapid_feed / 60.0 * self.config.motor_steps_per_mm()))
-            record = JobRecord(uuid.uuid4().hex, name, [c.text for c in commands], [c.line for c in commands],
-                               start, bool(board.pen_down), rapid, board.z_steps if board.has_z else None)
-            return self._stream(record, goal_handle)
+        """Run one program, or resume a journalled job (on the worker thread:
+        it waits for the board)."""
+        board = self._board_state()
+        if board is None or board.state == BoardState.DISCONNECTED:
+            return Outcome(False, "board not connected (no state from serial_bridge)")
+        if not board.position_known:
+            return Outcome(False, "position unknown after a board reset: call set_origin first")
+        start = (board.x_steps, board.y_steps)
+        if resume:
+            return self._resume(resume, board, goal_handle)
+        try:
+            config = replace(self.config, link_seq=board.next_seq,
+                             link_baud=link_baud(int(self.params["link_baud"]), board.link_baud))
+            commands = compile_program(text, config, start, board.z_steps)
+        except GCodeError as exc:
+            return Outcome(False, str(exc))
+        if not commands:
+            return Outcome(True, "nothing to do")
+        z_line = next((c.line for c in commands if c.verb == "Z"), None)
+        if z_line is not None and not board.has_z:
+            return Outcome(False, f"line {z_line}: a Z move, and the board reports no Z axis "
+                                  f"(firmware built without ZAXIS=1)")
+        rapid = int(min(MAX_RATE, self.config.rapid_feed / 60.0 * self.config.motor_steps_per_mm()))
+        record = JobRecord(uuid.uuid4().hex, name, [c.text for c in commands], [c.line for c in commands],
+                           start, bool(board.pen_down), rapid, board.z_steps if board.has_z else None)
+        return self._stream(record, goal_handle)
 
     def _resume(self, job_id: str, board: BoardState, goal_handle) -> Outcome:
         try:
@@ -243,14 +304,14 @@ class GCodeStreamer(Node):
         if progress.resumed_by:
             return Outcome(False, f"job {job_id} was already resumed as {progress.resumed_by}")
         completed = progress.completed
-        status, result = self._bridge_result(job_id)
-        if status == GoalStatus.STATUS_SUCCEEDED or progress.state == DONE:
+        status = self._bridge_job(job_id)
+        if (status is not None and status.known and status.success) or progress.state == DONE:
             self.journal.update(job_id, Progress(len(record.commands), DONE, "done"))
-            return Outcome(True, f"{record.name}: already done", record.lines[-1] if record.lines else 0, job_id)
-        if status in (GoalStatus.STATUS_ABORTED, GoalStatus.STATUS_CANCELED):
-            completed = max(completed, int(result.completed))
-        elif status != GoalStatus.STATUS_UNKNOWN:
+            return Outcome(True, "already done", record.lines[-1] if record.lines else 0, job_id)
+        if status is not None and status.running:
             return Outcome(False, f"job {job_id} is still running on the bridge")
+        if status is not None and status.known:
+            completed = max(completed, int(status.completed))
         z_at = board.z_steps if board.has_z else None
         commands, lines = resume_commands(record, completed, (board.x_steps, board.y_steps), bool(board.pen_down),
                                           z_at)
@@ -262,17 +323,21 @@ class GCodeStreamer(Node):
                                f"{len(record.commands)} (line {line}) as job {new.job_id}")
         return self._stream(new, goal_handle)
 
-    def _bridge_result(self, job_id: str) -> Tuple[int, Optional[StreamCommands.Result]]:
-        """What the bridge says about one of its goals (kept for a while after it ends)."""
-        if not self._bridge.wait_for_server(timeout_sec=5.0):
-            return GoalStatus.STATUS_UNKNOWN, None
-        accepted = StreamCommands.Impl.SendGoalService.Response(accepted=True)
-        handle = ClientGoalHandle(self._bridge, UUID(uuid=list(bytes.fromhex(job_id))), accepted)
-        future = handle.get_result_async()
-        if not _wait(future, 5.0 + self.lease * 2):
-            return GoalStatus.STATUS_UNKNOWN, None
-        res = future.result()
-        return res.status, res.result
+    def _bridge_job(self, job_id: str) -> Optional[JobStatus.Response]:
+        """What the bridge knows of one of its jobs, once it has ended (a job
+        whose streamer died ends when its lease runs out); None if the
+        bridge does not answer."""
+        if not self._job_status.wait_for_service(timeout_sec=5.0):
+            return None
+        deadline = time.monotonic() + 5.0 + self.lease * 2
+        while True:
+            future = self._job_status.call_async(JobStatus.Request(job_id=job_id))
+            if not _wait(future, 5.0):
+                return None
+            status = future.result()
+            if not status.running or time.monotonic() > deadline:
+                return status
+            time.sleep(0.2)
 
     def _stream(self, record: JobRecord, goal_handle) -> Outcome:
         job_id = record.job_id
@@ -313,6 +378,8 @@ class GCodeStreamer(Node):
         res_future = inner.get_result_async()
         last_renew = time.monotonic()
         while not res_future.done():
+            if not self.context.ok():               # the node is stopping: the lease ends the job
+                return Outcome(False, "the streamer stopped", 0, job_id)
             if goal_handle is not None and goal_handle.is_cancel_requested:
                 inner.cancel_goal_async()
                 _wait(res_future, 10.0)
@@ -324,16 +391,20 @@ class GCodeStreamer(Node):
             self.journal.update(job_id, Progress(progress.completed, RUNNING))
         res = res_future.result().result if res_future.done() else None
         if res is None:
-            return Outcome(False, "canceled", 0, job_id)
+            return Outcome(False, "canceled", 0, job_id, canceled=True)
         self._last_xy = (res.x_mm, res.y_mm)
         completed = len(record.commands) if res.success else int(res.completed)
         self.journal.update(job_id, Progress(completed, DONE if res.success else INTERRUPTED, res.message))
         lines_done = record.lines[completed - 1] if completed else 0
         if res.success:
-            return Outcome(True, f"{record.name}: done", total_lines, job_id)
+            return Outcome(True, "done", total_lines, job_id)
         if goal_handle is not None and goal_handle.is_cancel_requested:
-            return Outcome(False, "canceled", lines_done, job_id)
-        return Outcome(False, f"{record.name}: {res.message}", lines_done, job_id)
+            return Outcome(False, "canceled", lines_done, job_id, canceled=True)
+        return Outcome(False, res.message, lines_done, job_id)
+
+    def destroy_node(self) -> None:
+        self._worker.shutdown()
+        super().destroy_node()
 
 
 def _wait(future, timeout: float) -> bool:

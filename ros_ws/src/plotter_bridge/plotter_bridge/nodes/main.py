@@ -1,6 +1,7 @@
 """The main() of every plotter node (serial_bridge, gcode_streamer,
 mock_board, and plotter_shapes' shape_server): init, spin, a clean exit on
-Ctrl-C, exit code 1 with one line on the log for a bad parameter."""
+Ctrl-C, exit code 1 with one line on the log for a bad parameter or bad
+command-line arguments."""
 from __future__ import annotations
 
 from typing import Callable, List, Optional
@@ -13,14 +14,20 @@ from rclpy.node import Node
 EXIT_OK = 0
 EXIT_BAD_PARAMETER = 1
 
+#: The namespace of a node started without a remap; `-r __ns:=/plotter2`
+#: runs a second plotter beside the first.
+DEFAULT_NAMESPACE = "/plotter"
+
 
 def run_node(make: Callable[[], Node], name: str, args: Optional[List[str]] = None, threads: int = 4) -> int:
-    """Spin the node `make()` builds on a multi-threaded executor (action
-    callbacks that wait for the board or the streamer keep other threads
-    free); return the exit code.  A node refuses a bad parameter by raising
-    ValueError, or rclpy's ParameterException (a value of the wrong type),
-    from its constructor."""
-    rclpy.init(args=args)
+    """Spin the node `make()` builds on a multi-threaded executor; return the
+    exit code.  A node refuses a bad parameter by raising ValueError (params.
+    BadParameter), or rclpy's ParameterException, from its constructor."""
+    try:
+        rclpy.init(args=args)
+    except Exception as exc:  # rcl's own parse of --ros-args
+        print(f"[FATAL] [{name}]: bad command-line arguments: {exc}", flush=True)
+        return EXIT_BAD_PARAMETER
     node: Optional[Node] = None
     executor: Optional[MultiThreadedExecutor] = None
     try:

@@ -16,8 +16,8 @@ same events on demand.
 from __future__ import annotations
 
 import sys
+from typing import Optional
 
-from rcl_interfaces.msg import ParameterDescriptor
 from rclpy.node import Node
 from std_msgs.msg import String
 from std_srvs.srv import Trigger
@@ -25,35 +25,39 @@ from std_srvs.srv import Trigger
 from plotter_bridge.sim.faults import parse_faults
 from plotter_bridge.sim.mock_board import MockBoard, MockBoardConfig
 
-from .main import run_node
-from .params import declare_machine
+from .main import DEFAULT_NAMESPACE, run_node
+from .params import BAUD, MACHINE, NodeParameters, ParamSpec, all_of, check_machine, machine_of
 from .qos import latched
 
-DEFAULT_NAMESPACE = "/plotter"
+SPECS = (
+    ParamSpec("link", "", "path of a symlink to the pty ('' = none)", read_only=True),
+    ParamSpec("trace", "", "CSV file of every step: t_s,x_steps,y_steps ('' = none)", read_only=True),
+    BAUD,
+    ParamSpec("seq_log", "", "file of the sequence numbers of the commands the board started, one a line "
+                             "('' = none)", read_only=True),
+    ParamSpec("faults", "", "serial faults and board events, e.g. drop=0.01,corrupt=0.01,dup=0.001,"
+                            "delay=0.001,seed=1,unplug_at=STEPS,unplug_for=S,reset_at=STEPS", read_only=True),
+    ParamSpec("unplug_for", 2.0, "how long the port stays away on ~/unplug", "s", low=0.0, high=3600.0),
+    *MACHINE,
+)
+
+
+def check_faults(values) -> Optional[str]:
+    try:
+        parse_faults(str(values["faults"]))
+    except ValueError as exc:
+        return f"faults = {values['faults']!r}: {exc}"
+    return None
 
 
 class MockBoardNode(Node):
     def __init__(self, *, namespace: str = DEFAULT_NAMESPACE, **kwargs) -> None:
         super().__init__("mock_board", namespace=namespace, **kwargs)
-        d = ParameterDescriptor
-        self.declare_parameter("link", "", d(description="path of a symlink to the pty ('' = none)"))
-        self.declare_parameter("trace", "", d(description="CSV file of every step: t_s,x_steps,y_steps ('' = none)"))
-        self.declare_parameter("baud", 115200, d(description="simulated UART baud rate"))
-        self.declare_parameter("seq_log", "", d(description="file of the sequence numbers of the commands "
-                                                            "the board started, one a line ('' = none)"))
-        self.declare_parameter("faults", "", d(description="serial faults and board events, e.g. "
-                                                           "drop=0.01,corrupt=0.01,dup=0.001,delay=0.001,"
-                                                           "seed=1,unplug_at=STEPS,unplug_for=S,reset_at=STEPS"))
-        self.declare_parameter("unplug_for", 2.0, d(description="seconds the port stays away on ~/unplug"))
-        machine = declare_machine(self)
-        config = MockBoardConfig(baud=int(self.get_parameter("baud").value),
-                                 link=str(self.get_parameter("link").value),
-                                 trace=str(self.get_parameter("trace").value),
-                                 seq_log=str(self.get_parameter("seq_log").value),
-                                 faults=parse_faults(str(self.get_parameter("faults").value)),
-                                 machine=machine)
-        if config.baud <= 0:
-            raise ValueError("baud must be positive")
+        self.params = NodeParameters(self, SPECS, cross=all_of(check_machine, check_faults))
+        p = self.params
+        config = MockBoardConfig(baud=int(p["baud"]), link=str(p["link"]), trace=str(p["trace"]),
+                                 seq_log=str(p["seq_log"]), faults=parse_faults(str(p["faults"])),
+                                 machine=machine_of(p.values()))
         self.board = MockBoard(config)
         self.create_publisher(String, "mock_port", latched()).publish(String(data=self.board.port_path))
         self.create_service(Trigger, "~/unplug", self._srv_unplug)
@@ -67,10 +71,7 @@ class MockBoardNode(Node):
                                f"firmware core {self.board.core.library}")
 
     def _srv_unplug(self, request, response):
-        seconds = float(self.get_parameter("unplug_for").value)
-        if not (0.0 <= seconds <= 3600.0):
-            response.success, response.message = False, f"unplug_for {seconds} outside 0..3600 s"
-            return response
+        seconds = float(self.params["unplug_for"])
         self.board.unplug(seconds)
         response.success, response.message = True, f"port away for {seconds:g} s"
         return response

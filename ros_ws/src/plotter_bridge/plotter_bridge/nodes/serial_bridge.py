@@ -1,11 +1,19 @@
 """serial_bridge: owns the serial port and speaks the firmware protocol.
 
-Publishes `position` (geometry_msgs/PointStamped, mm, frame `plotter`; z is
-the Z axis of a board built with one, else 0) and
-`state` (plotter_interfaces/BoardState, reliable, transient local) from the
-board's status reports; offers `estop`, `hold`, `resume`, `reset` and
-`set_origin` (std_srvs/Trigger); serves `stream_commands`
-(plotter_interfaces/action/StreamCommands) to run a job of board commands.
+Publishes `position` (geometry_msgs/PointStamped in metres, REP-103, frame
+`plotter`; z is the Z axis of a board built with one, else 0) and `state`
+(plotter_interfaces/BoardState, reliable, transient local; its `_mm` fields
+in millimetres) from the board's status reports; offers `estop`, `hold`,
+`resume`, `reset` and `set_origin` (std_srvs/Trigger) and `job_status`
+(plotter_interfaces/JobStatus); serves `stream_commands`
+(plotter_interfaces/action/StreamCommands) to run a job of board commands,
+one job at a time: a goal that comes while one runs is rejected (the
+streamer queues jobs; the bridge only runs them).
+
+A port that cannot be opened is logged at ERROR at once, naming it and the
+reason, and again at each attempt (attempts come further apart, up to 10 s);
+`state` is then DISCONNECTED with the reason in `last_error`, and
+/diagnostics says the same.
 
 A background thread pumps the board session (link/board_session.py: the link,
 reconnection, reset detection, confirmed real-time bytes) so that streaming
@@ -23,24 +31,29 @@ import threading
 import time
 from typing import List, Optional
 
+from collections import OrderedDict
+from dataclasses import dataclass
+
 from geometry_msgs.msg import PointStamped
 from rclpy.action import ActionServer, CancelResponse, GoalResponse
-from rclpy.callback_groups import ReentrantCallbackGroup
+from rclpy.callback_groups import MutuallyExclusiveCallbackGroup, ReentrantCallbackGroup
 from rclpy.node import Node
-from rcl_interfaces.msg import ParameterDescriptor
+from rclpy.task import Future
 from std_msgs.msg import String
 from std_srvs.srv import Trigger
 
 from plotter_interfaces.action import StreamCommands
 from plotter_interfaces.msg import BoardState
+from plotter_interfaces.srv import JobStatus
 
-from plotter_bridge.link.board_session import DISCONNECTED, QUEUE_SIZE, BoardSession, Job, SessionConfig
+from plotter_bridge.link.board_session import DISCONNECTED, QUEUE_SIZE, BoardSession, Job, JobResult, SessionConfig
 from plotter_bridge.link.protocol import Status
 
-from .main import run_node
-from .params import declare_machine
+from .jobs import Waker
+from .main import DEFAULT_NAMESPACE, run_node
+from .params import BAUD, MACHINE, NodeParameters, ParamSpec, check_machine, machine_of
 from .qos import latched
-from .telemetry import BridgeTelemetry
+from .telemetry import MM, BridgeTelemetry
 
 STATE_CODES = {"Idle": BoardState.IDLE, "Run": BoardState.RUNNING,
                "Hold": BoardState.HOLD, "Alarm": BoardState.ALARM}
@@ -49,8 +62,7 @@ STATE_NAMES = {BoardState.IDLE: "IDLE", BoardState.RUNNING: "RUNNING", BoardStat
 MAX_COMMAND_LEN = 40            # the firmware accepts 48 characters with N and checksum
 MAX_JOB_COMMANDS = 1_000_000
 MAX_LEASE_S = 3600.0
-IO_SWITCH_INTERVAL = 0.0002     # s; see SerialBridge.__init__
-DEFAULT_NAMESPACE = "/plotter"   # `-r __ns:=/plotter2` runs a second plotter beside it
+IO_SWITCH_INTERVAL = 0.0002     # s; see main()
 
 
 def validate_commands(commands: List[str]) -> Optional[str]:
@@ -93,26 +105,50 @@ def wait_readable(port, timeout: float) -> None:
         time.sleep(timeout)
 
 
+SPECS = (
+    ParamSpec("port", "/dev/ttyUSB0", "serial port of the board, or any pyserial URL (socket://host:port, "
+                                      "a pty path)", read_only=True),
+    BAUD,
+    ParamSpec("status_hz", 25.0, "status polls per second (the position topic's rate); at most what 5 % of the "
+                                 "link's bytes carry while commands wait to be sent", "Hz", low=1.0, high=200.0),
+    ParamSpec("ack_timeout", 0.5, "time without an acknowledgement before lines are sent again", "s",
+              low=0.01, high=10.0),
+    ParamSpec("reconnect_timeout", 30.0, "how long a job waits for a vanished port before it is aborted", "s",
+              low=0.0, high=3600.0),
+    ParamSpec("frame_id", "plotter", "frame of the position, paths and markers", read_only=True),
+    *MACHINE,
+)
+JOB_MEMORY = 256                # finished jobs the job_status service still knows
+FEEDBACK_PERIOD = 0.1           # s between a job's feedback messages
+
+
+def check_bridge(values) -> Optional[str]:
+    for name in ("port", "frame_id"):
+        if not str(values[name]).strip():
+            return f"{name} = '': must be a name, not empty"
+    return check_machine(values)
+
+
+@dataclass
+class _Running:
+    """The stream_commands goal the board is working on."""
+    goal_handle: object
+    job: Job
+    done: Future
+    canceling: bool = False
+
+
 class SerialBridge(Node):
     def __init__(self, *, namespace: str = DEFAULT_NAMESPACE, **kwargs) -> None:
         super().__init__("serial_bridge", namespace=namespace, **kwargs)
-        d = ParameterDescriptor
-        self.declare_parameter("port", "/dev/ttyUSB0", d(description="serial port or any pyserial URL (socket://host:port, a pty path)"))
-        self.declare_parameter("baud", 115200, d(description="baud rate"))
-        self.declare_parameter("status_hz", 25.0, d(description="status polls per second (position topic rate); "
-                                                         "at most what 5 % of the link's bytes carry while "
-                                                         "commands wait to be sent (link/board_link.py STATUS_SHARE)"))
-        self.declare_parameter("ack_timeout", 0.5, d(description="seconds without acknowledgement before resending"))
-        self.declare_parameter("reconnect_timeout", 30.0, d(description="seconds a job waits for a vanished port before it is aborted"))
-        self.declare_parameter("frame_id", "plotter", d(description="frame of the position topic"))
-        self.machine = declare_machine(self)
+        self.params = NodeParameters(self, SPECS, cross=check_bridge, on_change=self._apply)
+        p = self.params
+        self.machine = machine_of(p.values())
         self.steps_per_mm = self.machine.steps_per_mm
-        self.frame_id = str(self.get_parameter("frame_id").value)
-        hz = float(self.get_parameter("status_hz").value)
-        config = SessionConfig(ack_timeout=float(self.get_parameter("ack_timeout").value),
-                               status_interval=1.0 / min(max(hz, 1.0), 200.0),
-                               baud=int(self.get_parameter("baud").value),
-                               reconnect_timeout=float(self.get_parameter("reconnect_timeout").value))
+        self.frame_id = str(p["frame_id"])
+        self.port_name = str(p["port"])
+        config = SessionConfig(ack_timeout=float(p["ack_timeout"]), status_interval=1.0 / float(p["status_hz"]),
+                               baud=int(p["baud"]), reconnect_timeout=float(p["reconnect_timeout"]))
 
         self.pub_position = self.create_publisher(PointStamped, "position", 10)
         self.pub_state = self.create_publisher(BoardState, "state", latched())
@@ -121,34 +157,50 @@ class SerialBridge(Node):
                               ("resume", self._srv_resume), ("reset", self._srv_reset),
                               ("set_origin", self._srv_set_origin)):
             self.create_service(Trigger, name, handler, callback_group=group)
+        self.create_service(JobStatus, "job_status", self._srv_job_status, callback_group=group)
         self.create_subscription(String, "job_lease", self._on_lease, 10, callback_group=group)
+        self._waker = Waker(self)
+        # Goals are taken one at a time, in order (a mutually exclusive group):
+        # the one the board works on, or a refusal.
         self._action = ActionServer(self, StreamCommands, "stream_commands", self._execute,
                                     goal_callback=self._on_goal, cancel_callback=lambda _: CancelResponse.ACCEPT,
-                                    callback_group=group)
-        self._job: Optional[Job] = None
-        self._job_id = ""
+                                    callback_group=MutuallyExclusiveCallbackGroup())
+        self._running: Optional[_Running] = None
         self._reserved = False
-        self._telemetry = BridgeTelemetry(self, self.steps_per_mm, self.frame_id,
-                                          str(self.get_parameter("port").value), to_pen=self._pen_steps
-                                          if self.machine.kind != "cartesian" else None)
+        self._finished: "OrderedDict[str, JobResult]" = OrderedDict()
+        self._telemetry = BridgeTelemetry(self, self.steps_per_mm, self.frame_id, self.port_name,
+                                          to_pen=self._pen_steps if self.machine.kind != "cartesian" else None)
         self.session = BoardSession(self._open_port, config, on_status=self._on_status,
-                                    on_change=self._on_change, log=self._log)
-        self._running = True
-        # A thread that wants the interpreter waits up to the switch interval (5 ms)
-        # for the one that has it, e.g. a telemetry timer building a long path;
-        # the I/O thread must answer an ok well within a line's 2.3 ms.
-        sys.setswitchinterval(IO_SWITCH_INTERVAL)
+                                    on_change=self._on_change, log=self._log, log_error=self._log_error)
+        self.create_timer(FEEDBACK_PERIOD, self._tick, callback_group=group)
+        self._alive = True
         self._io = threading.Thread(target=self._io_loop, name="serial-io", daemon=True)
         self._io.start()
+        self.get_logger().info(f"serial bridge on {self.port_name} at {config.baud} baud")
+
+    def _apply(self, names: List[str]) -> None:
+        """Parameters changed while running: the session takes them at its next poll."""
+        p = self.params
+        with self.session.lock:
+            cfg = self.session.config
+            cfg.ack_timeout = float(p["ack_timeout"])
+            cfg.status_interval = 1.0 / float(p["status_hz"])
+            cfg.reconnect_timeout = float(p["reconnect_timeout"])
+            if self.session.link is not None:
+                self.session.link.ack_timeout = cfg.ack_timeout
+                self.session.link.status_interval = cfg.status_interval
+        self.get_logger().info("parameters applied: " + ", ".join(f"{n} = {p[n]}" for n in names))
 
     # --- serial I/O thread ---------------------------------------------------
     def _open_port(self):
         import serial  # pyserial
-        port = str(self.get_parameter("port").value)
-        return serial.serial_for_url(port, baudrate=int(self.get_parameter("baud").value), timeout=0)
+        try:
+            return serial.serial_for_url(self.port_name, baudrate=int(self.params["baud"]), timeout=0)
+        except Exception as exc:
+            raise OSError(f"cannot open {self.port_name}: {open_error(exc)}") from exc
 
     def _io_loop(self) -> None:
-        while self._running:
+        while self._alive:
             self.session.pump()
             port = self.session.port
             if port is None:
@@ -159,22 +211,25 @@ class SerialBridge(Node):
     def _log(self, text: str) -> None:
         self.get_logger().info(text)
 
+    def _log_error(self, text: str) -> None:
+        self.get_logger().error(text)
+
     # --- session callbacks (I/O thread, session lock held) ------------------------
     def _on_status(self, st: Status) -> None:
         stamp = self.get_clock().now().to_msg()
         p = PointStamped()
         p.header.stamp = stamp
         p.header.frame_id = self.frame_id
-        p.point.x, p.point.y = self.machine.pen_mm((st.x, st.y))
-        if st.z is not None:
-            p.point.z = st.z / self.machine.z_steps_per_mm
+        x_mm, y_mm = self.machine.pen_mm((st.x, st.y))
+        z_mm = st.z / self.machine.z_steps_per_mm if st.z is not None else 0.0
+        p.point.x, p.point.y, p.point.z = x_mm * MM, y_mm * MM, z_mm * MM
         self.pub_position.publish(p)
         s = self._state_msg(STATE_CODES.get(st.state, BoardState.IDLE))
         s.header.stamp = stamp
         s.x_steps, s.y_steps = st.x, st.y
-        s.x_mm, s.y_mm = p.point.x, p.point.y
+        s.x_mm, s.y_mm = x_mm, y_mm
         if st.z is not None:
-            s.has_z, s.z_steps, s.z_mm = True, st.z, p.point.z
+            s.has_z, s.z_steps, s.z_mm = True, st.z, z_mm
         s.pen_down = st.pen_down
         s.queue_free = st.queue_free
         self.pub_state.publish(s)
@@ -203,9 +258,10 @@ class SerialBridge(Node):
         s.queue_size = QUEUE_SIZE
         s.last_error = self.session.last_error
         s.firmware_version = self.session.firmware
-        s.link_baud = int(self.get_parameter("baud").value)
+        s.link_baud = int(self.params["baud"])
         s.next_seq = self.session.link.next_seq if self.session.link else 0
-        job = self._job
+        running = self._running
+        job = running.job if running is not None else None
         if job is not None and job.commands:
             s.current_line = job.line_of(job.started - 1)
             s.lines_done = job.line_of(job.started - 2) if job.started > 1 else 0
@@ -214,62 +270,95 @@ class SerialBridge(Node):
     # --- action: stream a job ------------------------------------------------
     def _on_goal(self, goal) -> GoalResponse:
         why = validate_goal(list(goal.commands), list(goal.lines), float(goal.lease))
+        if why is None and self._reserved:
+            why = "another job is running (the board takes one job at a time)"
         if why:
-            self.get_logger().error(f"job refused: {why}")
+            self.get_logger().warn(f"stream_commands goal rejected: {why}")
             return GoalResponse.REJECT
-        with self.session.lock:
-            if self._reserved:
-                self.get_logger().error("job refused: another job is running")
-                return GoalResponse.REJECT
-            self._reserved = True     # one job at a time
+        self._reserved = True
         return GoalResponse.ACCEPT
 
     def _on_lease(self, msg: String) -> None:
-        job = self._job
-        if job is not None and msg.data == self._job_id:
-            self.session.renew(job)
+        running = self._running
+        if running is not None and msg.data == self._job_id(running.goal_handle):
+            self.session.renew(running.job)
 
-    def _execute(self, goal_handle):
+    @staticmethod
+    def _job_id(goal_handle) -> str:
+        return bytes(goal_handle.goal_id.uuid).hex()
+
+    async def _execute(self, goal_handle):
+        """The job runs on the serial thread; this coroutine only waits for
+        its end (the feedback timer completes `done`), holding no executor
+        thread meanwhile."""
         req = goal_handle.request
         lines = list(req.lines) or [0] * len(req.commands)
         result = StreamCommands.Result()
+        job_id = self._job_id(goal_handle)
         try:
             try:
                 job = self.session.start_job(list(req.commands), lines, float(req.lease))
             except RuntimeError as exc:           # the last job has not let go of the board yet
                 result.message = str(exc)
+                self.get_logger().warn(f"job {job_id[:8]} refused: {exc}")
                 goal_handle.abort()
                 return result
-            self._job_id = bytes(goal_handle.goal_id.uuid).hex()
-            self._job = job
-            fb = StreamCommands.Feedback()
-            fb.total = len(req.commands)
-            while job.result is None:
-                if goal_handle.is_cancel_requested:
-                    self.session.cancel(job)
-                    break
-                self.session.wait_job(job, 0.1)
-                acknowledged, started, line = self.session.progress(job)
-                fb.acknowledged, fb.executed, fb.current_line = acknowledged, started, line
-                fb.x_mm, fb.y_mm = self._position_mm()
-                goal_handle.publish_feedback(fb)
-            r = job.result
-            result.x_mm, result.y_mm = self._position_mm()
-            result.message = r.message if r else "canceled"
-            result.executed = r.executed if r else 0
-            result.completed = r.completed if r else 0
-            result.success = bool(r and r.success)
-            if goal_handle.is_cancel_requested and not result.success:
-                goal_handle.canceled()
-            elif result.success:
-                goal_handle.succeed()
-            else:
-                self.get_logger().warn(f"job failed: {result.message}")
-                goal_handle.abort()
-            return result
+            running = _Running(goal_handle, job, Future())
+            self._running = running
+            outcome: JobResult = await self._waker.wait(running.done)
         finally:
-            with self.session.lock:
-                self._reserved = False
+            self._running = None
+            self._reserved = False
+        self._remember(job_id, outcome)
+        result.x_mm, result.y_mm = self._position_mm()
+        result.message, result.executed, result.completed = outcome.message, outcome.executed, outcome.completed
+        result.success = outcome.success
+        if goal_handle.is_cancel_requested and not result.success:
+            self.get_logger().info(f"job {job_id[:8]} canceled after {outcome.completed} commands")
+            goal_handle.canceled()
+        elif result.success:
+            goal_handle.succeed()
+        else:
+            self.get_logger().warn(f"job {job_id[:8]} failed: {result.message}")
+            goal_handle.abort()
+        return result
+
+    def _tick(self) -> None:
+        """Feedback of the running job; passes a cancel request on; ends the job."""
+        running = self._running
+        if running is None or running.done.done():
+            return
+        job = running.job
+        if running.goal_handle.is_cancel_requested and not running.canceling:
+            running.canceling = True
+            self.session.cancel(job, timeout=0.0)
+        if job.result is not None:
+            running.done.set_result(job.result)
+            return
+        fb = StreamCommands.Feedback()
+        fb.total = len(job.commands)
+        fb.acknowledged, fb.executed, fb.current_line = self.session.progress(job)
+        fb.x_mm, fb.y_mm = self._position_mm()
+        running.goal_handle.publish_feedback(fb)
+
+    def _remember(self, job_id: str, outcome: JobResult) -> None:
+        self._finished[job_id] = outcome
+        while len(self._finished) > JOB_MEMORY:
+            self._finished.popitem(last=False)
+
+    def _srv_job_status(self, request, response):
+        running = self._running
+        if running is not None and self._job_id(running.goal_handle) == request.job_id:
+            response.known, response.running = True, True
+            _, started, _ = self.session.progress(running.job)
+            response.executed, response.completed = started, max(started - 1, 0)
+            response.message = "running"
+            return response
+        outcome = self._finished.get(request.job_id)
+        if outcome is not None:
+            response.known, response.success, response.message = True, outcome.success, outcome.message
+            response.executed, response.completed = outcome.executed, outcome.completed
+        return response
 
     def _pen_steps(self, motor: tuple) -> tuple:
         """Telemetry draws in the trace's units: the pen's mm times steps_per_mm."""
@@ -309,13 +398,26 @@ class SerialBridge(Node):
         return response
 
     def destroy_node(self) -> None:
-        self._running = False
+        self._alive = False
         self._io.join(timeout=2)
         self.session.close()
         super().destroy_node()
 
 
+def open_error(exc: Exception) -> str:
+    """The reason a port did not open, without pyserial's repetition of its name."""
+    cause = exc.__context__
+    if isinstance(cause, OSError) and cause.strerror:
+        return cause.strerror
+    return str(exc)
+
+
 def main(args=None) -> int:
+    # A thread that wants the interpreter waits up to the switch interval (5 ms)
+    # for the one that has it, e.g. a telemetry timer building a long path; the
+    # serial thread must answer an ok well within a line's 2.3 ms.  A setting of
+    # the whole process, so it is made here, where the process starts.
+    sys.setswitchinterval(IO_SWITCH_INTERVAL)
     return run_node(SerialBridge, "serial_bridge", args)
 
 

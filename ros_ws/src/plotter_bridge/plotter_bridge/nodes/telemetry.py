@@ -20,7 +20,7 @@ keeps them; two timers of the bridge's node publish, in its namespace:
   each OK, WARN or ERROR as REP-107 describes.
 
 Paths and markers are in metres (REP-103) in the bridge's frame (``plotter``),
-so RViz shows the 200 mm work area at its true size; ``position`` stays in mm.
+as ``position`` is, so RViz shows the 200 mm work area at its true size.
 The board counts motor steps; on a machine whose motors are not its axes
 (the hanging plotter) every position goes through the machine's forward
 kinematics first (``to_pen``: motor steps to the pen's mm times steps_per_mm),
