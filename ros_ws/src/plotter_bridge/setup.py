@@ -14,6 +14,7 @@ setup(
         ('share/' + package_name + '/config', ['config/plotter.yaml']),
     ],
     install_requires=['setuptools'],
+    extras_require={'test': ['pytest']},
     zip_safe=True,
     maintainer='Plotter maintainers',
     maintainer_email='plotter@example.com',

@@ -11,10 +11,12 @@ setup(
         ('share/' + package_name, ['package.xml']),
     ],
     install_requires=['setuptools'],
+    extras_require={'test': ['pytest']},
     zip_safe=True,
     maintainer='Plotter maintainers',
     maintainer_email='plotter@example.com',
-    description='Shape geometry, SVG and text input, the DrawShape action server and the draw, svg and text subcommands of the plotter command.',
+    description='Shape geometry, SVG and text input, the DrawShape action server and the draw, '
+                'svg and text subcommands of the plotter command.',
     license='MIT',
     entry_points={
         'console_scripts': [

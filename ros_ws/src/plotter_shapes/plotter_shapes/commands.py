@@ -60,7 +60,8 @@ _DRAW = Command("draw", "draw one of the built-in shapes", _configure_draw, run_
 
 def _drawing_args(p: argparse.ArgumentParser, what: str) -> None:
     p.add_argument("--width", type=float, default=None, metavar="MM",
-                   help=f"scale the {what} to this width (default: {'its own size' if what == 'drawing' else 'the font size'})")
+                   help=f"scale the {what} to this width "
+                        f"(default: {'its own size' if what == 'drawing' else 'the font size'})")
     p.add_argument("--x", type=float, default=100.0, metavar="MM", help=f"centre of the {what}, X (default 100)")
     p.add_argument("--y", type=float, default=100.0, metavar="MM", help=f"centre of the {what}, Y (default 100)")
     p.add_argument("--optimize", action="store_true",

@@ -179,6 +179,9 @@ def run_program_text(text: str, name: str, args: argparse.Namespace,
         return EXIT_BAD_PROGRAM
     from dataclasses import replace
     from plotter_bridge.nodes.local_graph import LocalGraph
+    from plotter_bridge.nodes.serial_bridge import IO_SWITCH_INTERVAL
+    # The serial bridge runs in this process: see serial_bridge.main().
+    sys.setswitchinterval(IO_SWITCH_INTERVAL)
     try:
         options = _graph_options(args)
     except ValueError as exc:
@@ -315,9 +318,7 @@ def run_watch(args: argparse.Namespace, out: TextIO = sys.stdout) -> int:
 
 
 _WATCH = Command("watch", "print live positions (like ros2 topic echo /plotter/position)",
-                  _configure_watch, run_watch)
-
-
+                 _configure_watch, run_watch)
 
 
 COMMANDS = (_STREAM, _RESUME, _JOBS, _WATCH)

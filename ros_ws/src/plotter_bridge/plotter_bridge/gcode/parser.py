@@ -47,7 +47,7 @@ from typing import Tuple, Dict, List, Optional
 
 from . import geometry
 from .types import (PEN_DOWN, PEN_UP, Dwell, GCodeError, Item, Move, Pause,
-                          PenChange, ZMove)
+                    PenChange, ZMove)
 from .limits import WorkArea, check_limits
 from .steps import StepMove, to_steps
 

@@ -563,4 +563,3 @@ def _held_still() -> Callable[[Status], bool]:
         last[:] = [st]
         return still
     return check
-

@@ -207,5 +207,5 @@ def diagnose_board(s: BridgeSnapshot) -> Diagnosis:
         return Diagnosis("board", WARN, f"queue ran dry {s.underruns_in_last_period} times (host too slow)", values)
     if s.last_error:
         return Diagnosis("board", WARN, s.last_error, values)
-    return Diagnosis("board", OK, {"Idle": "idle", "Run": "running", "Hold": "feed hold"}.get(s.board_state,
-                                                                                            s.board_state), values)
+    words = {"Idle": "idle", "Run": "running", "Hold": "feed hold"}
+    return Diagnosis("board", OK, words.get(s.board_state, s.board_state), values)

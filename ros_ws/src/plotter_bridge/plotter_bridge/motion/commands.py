@@ -20,7 +20,6 @@ from plotter_bridge.gcode.types import Dwell, Pause, PenChange, ZMove
 from plotter_bridge.link.protocol import FIRMWARE_ACCEL, MAX_DELTA, MAX_RATE, MIN_RATE  # noqa: F401
 
 
-
 Vec = Tuple[float, float]
 
 

@@ -117,6 +117,7 @@ def motor_pieces(path: Callable[[float], Point], geometry: HangingGeometry,
     board's staircase (one motor step off the motor line, about 0.025 mm of
     string) and for rounding the piece ends to whole steps."""
     budget = tolerance / 2
+
     def error(t0: float, t1: float) -> float:
         # Point against point at the same fraction: stricter than the distance
         # to the path, and it notices a piece whose ends coincide (a full circle).

@@ -126,8 +126,9 @@ def check_streamer(values) -> Optional[str]:
 def streamer_config(values) -> StreamerConfig:
     """The compiler's settings from the node's parameter values."""
     machine = machine_of(values)
-    v = {k: float(values[k]) for k in ("rapid_feed", "x_min", "x_max", "y_min", "y_max", "z_min", "z_max",
-                                        "acceleration", "junction_deviation", "tolerance")}
+    names = ("rapid_feed", "x_min", "x_max", "y_min", "y_max", "z_min", "z_max", "acceleration",
+             "junction_deviation", "tolerance")
+    v = {k: float(values[k]) for k in names}
     return StreamerConfig(machine.steps_per_mm, v["rapid_feed"],
                           WorkArea(v["x_min"], v["x_max"], v["y_min"], v["y_max"], v["z_min"], v["z_max"]),
                           v["acceleration"], v["junction_deviation"], bool(values["lookahead"]),

@@ -6,7 +6,6 @@ the streamer's `run_program` action exactly as a separate client would.
 """
 from __future__ import annotations
 
-import sys
 import tempfile
 import threading
 from dataclasses import dataclass, field
@@ -26,7 +25,7 @@ from plotter_bridge.sim.faults import FaultSpec
 from plotter_bridge.sim.mock_board import MockBoard, MockBoardConfig
 
 from .gcode_streamer import GCodeStreamer
-from .serial_bridge import IO_SWITCH_INTERVAL, SerialBridge
+from .serial_bridge import SerialBridge
 
 ProgressCallback = Callable[[RunProgram.Feedback], None]
 
@@ -62,8 +61,6 @@ class ProgramResult:
 class LocalGraph:
     def __init__(self, options: GraphOptions) -> None:
         self.options = options
-        # The bridge's serial thread shares this process; see serial_bridge.main().
-        sys.setswitchinterval(IO_SWITCH_INTERVAL)
         self.board: Optional[MockBoard] = None
         self._context = Context()
         rclpy.init(context=self._context, args=[])

@@ -22,7 +22,7 @@ from rclpy.node import Node
 from std_msgs.msg import String
 from std_srvs.srv import Trigger
 
-from plotter_bridge.sim.faults import parse_faults
+from plotter_bridge.sim.faults import FaultSpec, parse_faults
 from plotter_bridge.sim.mock_board import MockBoard, MockBoardConfig
 
 from .main import DEFAULT_NAMESPACE, run_node
@@ -63,7 +63,7 @@ class MockBoardNode(Node):
         self.create_service(Trigger, "~/unplug", self._srv_unplug)
         self.create_service(Trigger, "~/power_cycle", self._srv_power_cycle)
         self.board.start()
-        if config.faults != type(config.faults)():
+        if config.faults != FaultSpec():
             self.get_logger().info(f"faults: {config.faults}")
         where = f" (link {config.link})" if config.link else ""
         print(f"mock board on {self.board.port_path}{where}", flush=True)
