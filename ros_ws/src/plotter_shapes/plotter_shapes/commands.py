@@ -4,7 +4,10 @@ built-in shape), ``svg`` (an SVG drawing) and ``text`` (Hershey text).
 plotter_bridge's command line finds them through the entry point group
 ``plotter.commands`` (setup.py), as ros2cli finds the verbs of other packages:
 the driver package never imports this one, which depends on it.  Each makes a
-G-code program and runs it like ``plotter stream`` (plotter_bridge.cli.run).
+G-code program and runs it like ``plotter stream`` (plotter_bridge.cli.run);
+without ``--port`` or ``--mock``, ``draw`` sends a ``draw`` goal to the
+running shape_server instead, and ``svg`` and ``text`` their program to the
+running gcode_streamer.
 """
 from __future__ import annotations
 
@@ -14,7 +17,7 @@ from pathlib import Path
 from typing import List
 
 from plotter_bridge.cli.command import EXIT_BAD_PROGRAM, Command
-from plotter_bridge.cli.run import connection_args, run_program_text
+from plotter_bridge.cli.run import connection_args, run_goal_on_graph, run_program_text
 
 from plotter_shapes.geometry import ShapeError, build_shape, figure_to_gcode
 from plotter_shapes.svg_input import Placement, VectorError, svg_program
@@ -52,7 +55,23 @@ def run_draw(args: argparse.Namespace) -> int:
     except ShapeError as exc:
         sys.stderr.write(f"draw: {exc}\n")
         return EXIT_BAD_PROGRAM
-    return run_program_text("\n".join(lines) + "\n", args.shape, args)
+    text = "\n".join(lines) + "\n"
+    if args.port or args.mock:
+        return run_program_text(text, args.shape, args)
+    from plotter_interfaces.action import DrawShape
+    return run_goal_on_graph(args, args.shape, DrawShape, "draw", DrawShape.Goal(shape=shape_goal(args)), text)
+
+
+def shape_goal(args: argparse.Namespace):
+    """The ShapeGoal of `plotter draw`'s arguments, for the running shape_server
+    (x = y = 0 there means the work area's centre, size 0 its default)."""
+    from plotter_interfaces.msg import ShapeGoal
+    x, y = (0.0, 0.0) if args.x is None and args.y is None else (
+        100.0 if args.x is None else args.x, 100.0 if args.y is None else args.y)
+    return ShapeGoal(shape=args.shape, x=float(x), y=float(y), size=float(args.size),
+                     clockwise=not args.ccw, reverse=args.reverse, feed=float(args.feed),
+                     x2=float(args.x2), y2=float(args.y2), start_angle=float(args.start_angle),
+                     end_angle=float(args.end_angle))
 
 
 _DRAW = Command("draw", "draw one of the built-in shapes", _configure_draw, run_draw)

@@ -238,6 +238,7 @@ class ShapeServer(Node):
             return
         goal_handle.publish_feedback(DrawShape.Feedback(
             progress=float(inner.progress),
+            seconds_left=float(inner.seconds_left),
             current_line=int(inner.current_line),
             x_mm=float(inner.x_mm),
             y_mm=float(inner.y_mm),

@@ -1,8 +1,13 @@
-"""`plotter stream`, `resume`, `jobs` and `watch`: the node graph from the command line.
+"""`plotter stream`, `resume`, `jobs`, `watch`, `state` and the board's
+buttons (`hold`, `estop`, `reset`, `set-origin`): the node graph from the
+command line.
 
-`run_program_text` and `connection_args` also serve the subcommands other
-packages add (plotter_shapes: `draw`, `svg`, `text`).  ROS is imported only
-when one of these runs, so `plotter check` stays quick.
+With `--port` or `--mock` a job runs on a node graph of its own, in this
+process (nodes/local_graph.py), which owns the serial port; without either
+it goes to the plotter already running in `--namespace` (client.py).
+`run_program_text`, `run_goal_on_graph` and `connection_args` also serve
+the subcommands other packages add (plotter_shapes: `draw`, `svg`, `text`).
+ROS is imported only when one of these runs, so `plotter check` stays quick.
 A program is parsed before any node starts, and checked against the work
 area from the pen's actual position before anything moves.
 """
@@ -21,18 +26,27 @@ from plotter_bridge.gcode.types import GCodeError
 from plotter_bridge.motion.kinematics import DEFAULT_Z_STEPS_PER_MM
 
 from .command import EXIT_BAD_PROGRAM, EXIT_FAILED, EXIT_OK, Command
+from .progress import ProgressDisplay
 
 HANGING_AREA = (0.0, 800.0, 0.0, 1000.0)   # seed 003's board below its pulleys, mm
 
 
+EXIT_INTERRUPTED = 130       # Ctrl-C: the job was cancelled
+# Options of a graph of the command's own: a running plotter has its settings in its nodes' parameters.
+LOCAL_ONLY = ("baud", "steps_per_mm", "trace", "faults", "seq_log", "journal", "area", "z_axis",
+              "z_steps_per_mm", "z_range")
+
+
 def connection_args(p: argparse.ArgumentParser) -> None:
     """The arguments of every subcommand that runs a program: where the board is, the machine."""
-    where = p.add_mutually_exclusive_group(required=True)
-    where.add_argument("--port", metavar="PORT", help="serial port or pyserial URL of the board")
-    where.add_argument("--mock", action="store_true", help="run on a simulated board (the firmware core)")
-    p.add_argument("--baud", type=int, default=115200, help="baud rate (default 115200)")
-    p.add_argument("--steps-per-mm", type=float, default=80.0, metavar="N",
-                   help="motor steps per mm (default 80)")
+    where = p.add_mutually_exclusive_group()
+    where.add_argument("--port", metavar="PORT",
+                       help="serial port or pyserial URL of the board: run the plotter's nodes in this command")
+    where.add_argument("--mock", action="store_true",
+                       help="run on a simulated board (the firmware core) in this command")
+    p.add_argument("--baud", type=int, default=None, help="with --port: baud rate (default 115200)")
+    p.add_argument("--steps-per-mm", type=float, default=None, metavar="N",
+                   help="with --port/--mock: motor steps per mm (default 80)")
     p.add_argument("--trace", metavar="OUT.csv", default="",
                    help="with --mock: write every step (t_s,x_steps,y_steps)")
     p.add_argument("--faults", default="", metavar="SPEC",
@@ -43,7 +57,9 @@ def connection_args(p: argparse.ArgumentParser) -> None:
                    help="with --mock: sequence numbers of the commands the board started")
     p.add_argument("--journal", metavar="DIR", default="",
                    help="job journal directory (default $ROS_HOME/plotter_journal)")
-    p.add_argument("--namespace", default="/plotter", help="ROS namespace of the nodes (default /plotter)")
+    p.add_argument("--namespace", default="/plotter",
+                   help="ROS namespace of the nodes (default /plotter); without --port or --mock, the running "
+                        "plotter the job goes to")
     p.add_argument("--machine", choices=("cartesian", "hanging"), default="cartesian",
                    help="kinematics: an XY table (default), or seed 003's hanging two-string plotter")
     p.add_argument("--area", type=float, nargs=4, metavar=("X_MIN", "X_MAX", "Y_MIN", "Y_MAX"), default=None,
@@ -75,8 +91,8 @@ def _graph_options(args: argparse.Namespace):
         raise ValueError("--z-steps-per-mm must be a positive number")
     if args.z_range and not args.z_range[0] < args.z_range[1]:
         raise ValueError("--z-range: Z_MIN must be below Z_MAX")
-    return GraphOptions(port=args.port or "", mock=args.mock, baud=args.baud,
-                        steps_per_mm=args.steps_per_mm, trace=args.trace,
+    return GraphOptions(port=args.port or "", mock=args.mock, baud=args.baud or 115200,
+                        steps_per_mm=args.steps_per_mm or 80.0, trace=args.trace,
                         namespace=args.namespace, faults=faults, seq_log=args.seq_log,
                         journal_dir=args.journal, machine=args.machine,
                         area=tuple(args.area) if args.area else HANGING_AREA if args.machine == "hanging" else None,
@@ -96,29 +112,6 @@ def reliability_report(graph) -> str:
                  f"{stats.resend_requests} resend requests, {stats.timeouts} time-outs, "
                  f"{stats.garbled_replies} damaged replies, {stats.reconnects} reconnects")
     return line
-
-
-class ProgressBar:
-    def __init__(self, total_lines: int, out: TextIO) -> None:
-        self.total = max(1, total_lines)
-        self.out = out
-        self._last = 0.0
-
-    def __call__(self, fb) -> None:
-        now = time.monotonic()
-        if now - self._last < 0.1 and fb.progress < 1.0:
-            return
-        self._last = now
-        width = 30
-        done = int(width * min(1.0, fb.progress))
-        self.out.write(f"\r[{'#' * done}{'.' * (width - done)}] {fb.progress * 100:5.1f}%  "
-                       f"line {fb.current_line}/{fb.total_lines}  X{fb.x_mm:8.3f} Y{fb.y_mm:8.3f}")
-        self.out.flush()
-
-    def close(self, success: bool) -> None:
-        if success:
-            self.out.write(f"\r[{'#' * 30}] 100.0%{' ' * 40}")
-        self.out.write("\n")
 
 
 class StateRecorder:
@@ -151,7 +144,7 @@ def write_pictures(args: argparse.Namespace, text: str, name: str, start: tuple,
     programmed = program_polylines(text, start) if text else []
     if trace_path:
         from plotter_bridge.sim.trace import read_trace
-        spm = args.steps_per_mm
+        spm = args.steps_per_mm or 80.0
         runs = runs_near_path(((x / spm, y / spm) for _, x, y in read_trace(Path(trace_path))), programmed)
     else:
         runs = runs_by_pen(samples)
@@ -177,6 +170,10 @@ def run_program_text(text: str, name: str, args: argparse.Namespace,
             (svg_out and Path(svg_out).suffix.lower() != ".svg"):
         err.write("--svg takes an .svg file, --png a .png file\n")
         return EXIT_BAD_PROGRAM
+    if not (args.port or args.mock):
+        from plotter_interfaces.action import RunProgram
+        goal = RunProgram.Goal(program=text, name=name, resume=resume_id)
+        return run_goal_on_graph(args, name, RunProgram, "run_program", goal, "" if resume_id else text, out, err)
     from dataclasses import replace
     from plotter_bridge.nodes.local_graph import LocalGraph
     from plotter_bridge.nodes.serial_bridge import IO_SWITCH_INTERVAL
@@ -191,11 +188,17 @@ def run_program_text(text: str, name: str, args: argparse.Namespace,
     with tempfile.TemporaryDirectory(prefix="plotter-") as tmp:
         if pictures and options.mock and not options.trace:
             options = replace(options, trace=str(Path(tmp) / "trace.csv"))
-        bar = None if args.quiet else ProgressBar(text.count("\n") + 1, err)
+        bar = None if args.quiet else ProgressDisplay(name, err, err.isatty())
         with LocalGraph(options) as graph:
             recorder = StateRecorder(graph.client_node) if pictures else None
             start = recorder.start() if recorder else (0.0, 0.0)
-            result = graph.run_program(text, name, progress=bar, resume=resume_id)
+            try:
+                result = graph.run_program(text, name, progress=bar, resume=resume_id)
+            except KeyboardInterrupt:
+                if bar:
+                    bar.close(False)
+                err.write(f"{name}: canceled\n")
+                return EXIT_INTERRUPTED
             report = reliability_report(graph) if options.mock and (args.faults or args.seq_log) else ""
         if bar:
             bar.close(result.success)
@@ -212,6 +215,59 @@ def run_program_text(text: str, name: str, args: argparse.Namespace,
     if result.job_id:
         err.write(f"to finish it from where it stopped: plotter resume {result.job_id} "
                   f"{'--mock' if args.mock else '--port ' + args.port}\n")
+    return EXIT_FAILED
+
+
+def client_refusal(args: argparse.Namespace) -> str:
+    """Why the options do not fit a job for a running plotter ("" if they do)."""
+    given = [name for name in LOCAL_ONLY if getattr(args, name, None) not in (None, False, "")]
+    if getattr(args, "machine", "cartesian") != "cartesian":
+        given.append("machine")
+    if not given:
+        return ""
+    return (f"{', '.join('--' + g.replace('_', '-') for g in given)}: only with --port or --mock "
+            f"(a running plotter takes its settings from its nodes' parameters)")
+
+
+def run_goal_on_graph(args: argparse.Namespace, name: str, action_type, action: str, goal, text: str,
+                      out: TextIO = sys.stdout, err: TextIO = sys.stderr) -> int:
+    """Send a goal to the plotter running in --namespace and wait for it,
+    showing its progress; Ctrl-C cancels it.  `text`: the program, for
+    --svg/--png."""
+    why = client_refusal(args)
+    if why:
+        err.write(f"{why}\n")
+        return EXIT_BAD_PROGRAM
+    from .client import GraphClient, Missing
+    svg_out, png_out = getattr(args, "svg", ""), getattr(args, "png", "")
+    display = None if args.quiet else ProgressDisplay(name, err, err.isatty())
+    with GraphClient(args.namespace) as client:
+        recorder = StateRecorder(client.node) if (svg_out or png_out) else None
+        try:
+            start = recorder.start() if recorder else (0.0, 0.0)
+            outcome = client.run_goal(action_type, action, goal, display or (lambda fb: None))
+        except Missing as exc:
+            err.write(f"{name}: {exc}\n")
+            return EXIT_FAILED
+        except KeyboardInterrupt:
+            if display:
+                display.close(False)
+            err.write(f"{name}: canceled; the pen stopped where it was\n")
+            return EXIT_INTERRUPTED
+    if display:
+        display.close(outcome.status == "succeeded")
+    if recorder:
+        write_pictures(args, text, name, start, "", recorder.samples, err)
+    if outcome.status == "rejected":
+        err.write(f"{name}: the plotter rejected the job (its queue is full: see its log)\n")
+        return EXIT_FAILED
+    r = outcome.result
+    if outcome.status == "succeeded":
+        out.write(f"{name}: done, pen at X{r.x_mm:.3f} Y{r.y_mm:.3f} mm\n")
+        return EXIT_OK
+    err.write(f"{name}: {outcome.status}: {r.message}\n")
+    if getattr(r, "job_id", ""):
+        err.write(f"to finish it from where it stopped: plotter resume {r.job_id}\n")
     return EXIT_FAILED
 
 
@@ -245,16 +301,22 @@ _STREAM = Command("stream", "stream a G-code program to the board (or a mock boa
 # ---------------------------------------------------------------- resume, jobs
 
 def _configure_resume(p: argparse.ArgumentParser) -> None:
-    p.add_argument("resume_id", metavar="JOB_ID", help="id of an interrupted job (see plotter jobs)")
+    p.add_argument("resume_id", metavar="JOB_ID", nargs="?", default="",
+                   help="id of an interrupted job (see plotter jobs); without it, go on after plotter hold")
     connection_args(p)
 
 
 def run_resume(args: argparse.Namespace) -> int:
+    if not args.resume_id:
+        if args.port or args.mock:
+            sys.stderr.write("plotter resume without JOB_ID acts on a running plotter: no --port or --mock\n")
+            return EXIT_BAD_PROGRAM
+        return run_trigger("resume", args)
     return run_program_text("", f"job {args.resume_id}", args)
 
 
-_RESUME = Command("resume", "finish an interrupted job from its last completed line (from the journal)",
-                  _configure_resume, run_resume)
+_RESUME = Command("resume", "go on after plotter hold; with JOB_ID, finish an interrupted job from its last "
+                            "completed line (from the journal)", _configure_resume, run_resume)
 
 
 def _configure_jobs(p: argparse.ArgumentParser) -> None:
@@ -321,4 +383,57 @@ _WATCH = Command("watch", "print live positions (like ros2 topic echo /plotter/p
                  _configure_watch, run_watch)
 
 
-COMMANDS = (_STREAM, _RESUME, _JOBS, _WATCH)
+# ---------------------------------------------------------------- state, buttons
+
+def _configure_namespace(p: argparse.ArgumentParser) -> None:
+    p.add_argument("--namespace", default="/plotter", help="namespace of the plotter (default /plotter)")
+
+
+STATE_FIELDS = ("state_name", "x_mm", "y_mm", "z_mm", "x_steps", "y_steps", "pen_down", "position_known",
+                "queue_free", "queue_size", "current_line", "lines_done", "last_error", "firmware_version",
+                "link_baud")
+
+
+def run_state(args: argparse.Namespace, out: TextIO = sys.stdout, err: TextIO = sys.stderr) -> int:
+    from .client import GraphClient, Missing
+    with GraphClient(args.namespace) as client:
+        try:
+            st = client.state()
+        except Missing as exc:
+            err.write(f"state: {exc}\n")
+            return EXIT_FAILED
+    for name in STATE_FIELDS:
+        value = getattr(st, name)
+        out.write(f"{name}: {value!r}\n" if isinstance(value, str) else f"{name}: {value}\n")
+    return EXIT_OK
+
+
+_STATE = Command("state", "print the board's state once (like ros2 topic echo --once /plotter/state)",
+                 _configure_namespace, run_state)
+
+BUTTONS = {"hold": ("hold", "feed hold: the pen stops on its path; plotter resume goes on"),
+           "estop": ("estop", "emergency stop: the board stops at once and waits for a reset"),
+           "reset": ("reset", "reset the board after an alarm, keeping the position"),
+           "set-origin": ("set_origin", "make where the pen is the origin (0, 0)")}
+
+
+def run_trigger(command: str, args: argparse.Namespace, out: TextIO = sys.stdout,
+                err: TextIO = sys.stderr) -> int:
+    from .client import GraphClient, Missing
+    service = BUTTONS[command][0] if command in BUTTONS else command
+    with GraphClient(args.namespace) as client:
+        try:
+            ok, message = client.trigger(service)
+        except Missing as exc:
+            err.write(f"{command}: {exc}\n")
+            return EXIT_FAILED
+    (out if ok else err).write(f"{command}: {message}\n")
+    return EXIT_OK if ok else EXIT_FAILED
+
+
+def _button(command: str) -> Command:
+    return Command(command, BUTTONS[command][1], _configure_namespace,
+                   lambda args: run_trigger(command, args))
+
+
+COMMANDS = (_STREAM, _RESUME, _JOBS, _WATCH, _STATE, *(_button(c) for c in BUTTONS))

@@ -48,6 +48,24 @@ class BoardCommand:
         return " ".join(parts)
 
 
+def from_text(text: str, line: int = 0) -> BoardCommand:
+    """A board command back from its text (BoardCommand.text), as a job's
+    journal keeps it; ValueError for anything else."""
+    parts = text.split()
+    if not parts or parts[0] not in ("L", "C", "A", "Z", "P", "D"):
+        raise ValueError(f"not a board command: {text!r}")
+    verb, numbers = parts[0], [int(v) for v in parts[1:]]
+    if verb in ("P", "D"):
+        return BoardCommand(verb, tuple(numbers), line)
+    if verb == "Z":
+        return BoardCommand(verb, (numbers[0],), line, abs(numbers[0]), *numbers[1:3])
+    if verb == "L":
+        dx, dy = numbers[:2]
+        return BoardCommand(verb, (dx, dy), line, abs(dx) + abs(dy), *numbers[2:4])
+    dx, dy, i, j = numbers[:4]
+    return BoardCommand(verb, (dx, dy, i, j), line, arc_steps(i, j, dx, dy, verb == "C")[0], *numbers[4:6])
+
+
 def _rate(feed_mm_min: float, steps: int, length_mm: float) -> int:
     if steps == 0 or length_mm <= 0:
         return MIN_RATE

@@ -60,8 +60,10 @@ from plotter_bridge.gcode.types import GCodeError
 from plotter_bridge.link.journal import (DONE, INTERRUPTED, RUNNING, Journal, JobRecord, Progress,
                                          default_journal_dir, resume_commands)
 from plotter_bridge.link.protocol import MAX_RATE
+from plotter_bridge.motion.commands import from_text
 from plotter_bridge.motion.compiler import MAX_PROGRAM_BYTES, StreamerConfig, compile_program
 from plotter_bridge.motion.planner import link_baud
+from plotter_bridge.motion.timing import JobProgress, command_seconds, pen_lengths
 
 from .jobs import JobQueue, Waker, Worker
 from .main import DEFAULT_NAMESPACE, run_node
@@ -352,6 +354,7 @@ class GCodeStreamer(Node):
         goal.lines = record.lines
         goal.lease = self.lease
         progress = Progress()
+        timing = self._timing(record)
 
         def relay(fb_msg):
             fb = fb_msg.feedback
@@ -361,7 +364,7 @@ class GCodeStreamer(Node):
                 out = RunProgram.Feedback()
                 out.current_line = fb.current_line
                 out.total_lines = total_lines
-                out.progress = float(fb.executed) / max(1, fb.total)
+                out.progress, out.seconds_left = timing.update(int(fb.executed), time.monotonic())
                 out.x_mm, out.y_mm = fb.x_mm, fb.y_mm
                 goal_handle.publish_feedback(out)
 
@@ -402,6 +405,12 @@ class GCodeStreamer(Node):
         if goal_handle is not None and goal_handle.is_cancel_requested:
             return Outcome(False, "canceled", lines_done, job_id, canceled=True)
         return Outcome(False, res.message, lines_done, job_id)
+
+    def _timing(self, record: JobRecord) -> JobProgress:
+        """The job's progress model: the pen's path and the plan's time per command."""
+        commands = [from_text(text) for text in record.commands]
+        lengths = pen_lengths(commands, record.start, self.machine.pen_mm, self.machine.steps_per_mm)
+        return JobProgress(lengths, command_seconds(commands))
 
     def destroy_node(self) -> None:
         self._worker.shutdown()
