@@ -1,8 +1,9 @@
 #!/usr/bin/env bash
 # Installs everything the plotter project needs to build and test, on a Debian 12
 # machine (run as root, or as a user with sudo for the apt step):
-#   - Debian packages: sdcc + sdcc-ucsim (8051 compiler and simulator), and what
-#     the Python venv needs (python3-venv, python3-dev, g++) when missing;
+#   - Debian packages: sdcc + sdcc-ucsim (8051 compiler and simulator), what
+#     the Python venv needs (python3-venv, python3-dev, g++) when missing, and
+#     with PLOTTER_BROWSER=1 chromium and chromium-driver (the web page's tests);
 #   - the venv .venv/ with ROS 2 Jazzy (PyPI wheels), colcon and the test tools,
 #     pinned in requirements.txt / requirements-build.txt;
 #   - a fix for the message wheels' exported CMake files (they name the wheel
@@ -36,6 +37,11 @@ apt_pkgs=()
 command -v sdcc >/dev/null || apt_pkgs+=(sdcc)
 command -v s51 >/dev/null || apt_pkgs+=(sdcc-ucsim)
 command -v c++ >/dev/null || apt_pkgs+=(g++)
+# The web page's tests drive Debian's chromium (scripts/test.sh asks for it).
+if [ "${PLOTTER_BROWSER:-0}" = 1 ]; then
+    command -v chromium >/dev/null || apt_pkgs+=(chromium)
+    command -v chromedriver >/dev/null || apt_pkgs+=(chromium-driver)
+fi
 if [ ! -x "$VENV/bin/python" ]; then
     # Debian's python3 needs python3-venv for ensurepip, and python3-dev for the
     # headers the rosidl Python extensions are compiled against.
@@ -102,7 +108,7 @@ BUILD_STAMP="$WS/install/.plotter-build.sha256"
 src_hash="$( { echo "$req_hash"; cd "$WS/src" && find . -type f ! -path '*/__pycache__/*' ! -name '*.pyc' ! -path '*.egg-info/*' -print0 \
     | LC_ALL=C sort -z | xargs -0 sha256sum; } | sha256sum | cut -d' ' -f1)"
 if [ ! -f "$WS/install/setup.bash" ] || [ "$(cat "$BUILD_STAMP" 2>/dev/null)" != "$src_hash" ]; then
-    log "colcon build in ros_ws/ (plotter_interfaces, plotter_bridge, plotter_shapes)"
+    log "colcon build in ros_ws/ (plotter_interfaces, plotter_bridge, plotter_shapes, plotter_web)"
     (
         cd "$WS"
         # setup.py install never deletes modules that left the source tree: start

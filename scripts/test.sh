@@ -7,7 +7,7 @@ set -euo pipefail
 ROOT="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
 cd "$ROOT"
 
-bash scripts/setup.sh
+PLOTTER_BROWSER=1 bash scripts/setup.sh
 
 # colcon's setup scripts read unset variables: source them without -u.
 set +u

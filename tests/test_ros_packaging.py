@@ -17,10 +17,10 @@ import pytest
 
 REPO = Path(__file__).resolve().parent.parent
 SRC = REPO / "ros_ws" / "src"
-PYTHON_PACKAGES = ("plotter_bridge", "plotter_shapes")
+PYTHON_PACKAGES = ("plotter_bridge", "plotter_shapes", "plotter_web")
 # Python modules from Debian packages, by their rosdep keys.
 ROSDEP = {"serial": "python3-serial", "matplotlib": "python3-matplotlib", "numpy": "python3-numpy",
-          "yaml": "python3-yaml"}
+          "yaml": "python3-yaml", "aiohttp": "python3-aiohttp"}
 # On PyPI only (no rosdep key): named in a comment of package.xml and in requirements.txt.
 PIP_ONLY = {"vpype": "vpype", "vpype_cli": "vpype", "svgelements": "svgelements"}
 

@@ -1,0 +1,1 @@
+"""A web page for the pen plotter, served by the web_ui node."""

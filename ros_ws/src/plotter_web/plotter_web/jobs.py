@@ -1,0 +1,105 @@
+"""What the page sends to be drawn, checked before anything moves.
+
+An uploaded file is G-code or an SVG drawing; either becomes a G-code
+program, checked the way the streamer checks it (the parser, then the work
+area from where the pen is), with the first error at its line and that
+line's text, and a preview of its pen-down path for the page.  Jog moves
+and shapes are checked the same way.  No ROS here: the node sends what
+passes to the streamer, which checks it once more against the board.
+"""
+from __future__ import annotations
+
+import math
+import os
+import tempfile
+from dataclasses import dataclass, field
+from typing import List, Optional, Tuple
+
+from plotter_bridge.cli.picture import program_polylines
+from plotter_bridge.gcode.limits import WorkArea, check_limits
+from plotter_bridge.gcode.parser import decode_program, parse, program_name
+from plotter_bridge.gcode.types import GCodeError
+
+MAX_UPLOAD = 4 * 1024 * 1024      # bytes; the streamer's own limit is the same order
+JOG_STEPS = (0.1, 1.0, 10.0)      # mm, the page's jog buttons
+Point = Tuple[float, float]
+
+
+@dataclass
+class Checked:
+    """A job as the page shows it before it runs."""
+    name: str
+    program: str = ""                                        # G-code, "" when the file could not be read
+    errors: List[dict] = field(default_factory=list)         # {"line", "message", "text"}; line 0: the file
+    preview: List[List[Point]] = field(default_factory=list)  # pen-down polylines, mm
+
+    @property
+    def ok(self) -> bool:
+        return bool(self.program) and not self.errors
+
+    def as_json(self) -> dict:
+        return {"name": self.name, "ok": self.ok, "errors": self.errors, "lines": self.program.count("\n"),
+                "preview": [[[round(x, 3), round(y, 3)] for x, y in line] for line in self.preview]}
+
+
+def is_svg(filename: str, data: bytes) -> bool:
+    head = data.lstrip()[:200].lower()
+    return filename.lower().endswith(".svg") or head.startswith(b"<?xml") or head.startswith(b"<svg")
+
+
+def svg_to_program(data: bytes, name: str, area: WorkArea, width: Optional[float], feed: float) -> str:
+    """An SVG drawing placed in the middle of the work area, as G-code."""
+    from plotter_shapes.svg_input import Placement, svg_program
+    centre = ((area.x_min + area.x_max) / 2, (area.y_min + area.y_max) / 2)
+    fd, path = tempfile.mkstemp(suffix=".svg")
+    try:
+        with os.fdopen(fd, "wb") as f:
+            f.write(data)
+        lines = svg_program(path, Placement(width, centre), feed)
+    finally:
+        os.unlink(path)
+    return "\n".join([f"({name})", *[line for line in lines if not line.startswith("(")]]) + "\n"
+
+
+def check_program(text: str, name: str, area: WorkArea, start: Point) -> Checked:
+    """Parse and check a G-code program for a pen now at `start` (mm)."""
+    job = Checked(name, text)
+    try:
+        items = parse(text, start=start)
+        check_limits(items, area)
+        job.preview = program_polylines(text, start)
+    except GCodeError as exc:
+        lines = text.splitlines()
+        source = lines[exc.line - 1].strip() if 0 < exc.line <= len(lines) else ""
+        job.errors.append({"line": exc.line, "message": exc.message, "text": source[:120]})
+    return job
+
+
+def check_upload(filename: str, data: bytes, area: WorkArea, start: Point,
+                 width: Optional[float] = None, feed: float = 1500.0) -> Checked:
+    """An uploaded file, read and checked."""
+    name = os.path.basename(filename or "upload")[:80] or "upload"
+    if len(data) > MAX_UPLOAD:
+        return Checked(name, errors=[{"line": 0, "message": f"file too large: {len(data)} bytes "
+                                                            f"(limit {MAX_UPLOAD})", "text": ""}])
+    if is_svg(filename, data):
+        from plotter_shapes.svg_input import VectorError
+        try:
+            text = svg_to_program(data, name, area, width, feed)
+        except (VectorError, ValueError) as exc:
+            return Checked(name, errors=[{"line": 0, "message": str(exc).replace(tempfile.gettempdir(), ""),
+                                          "text": ""}])
+    else:
+        try:
+            text = decode_program(data)
+        except GCodeError as exc:
+            return Checked(name, errors=[{"line": exc.line, "message": exc.message, "text": ""}])
+        name = program_name(text, name)
+    return check_program(text, name, area, start)
+
+
+def jog_program(dx: float, dy: float) -> str:
+    """A pen-up move by (dx, dy) mm from where the pen is."""
+    if not all(math.isfinite(v) and abs(v) <= max(JOG_STEPS) for v in (dx, dy)) or (dx, dy) == (0, 0):
+        raise ValueError(f"jog by ({dx}, {dy}) mm: each of X and Y at most {max(JOG_STEPS):g} mm, not both 0")
+    return f"(jog)\nG21 G91\nG0 X{dx:.4f} Y{dy:.4f}\nG90\nM2\n"

@@ -1,0 +1,291 @@
+"""web_ui: a web page for the plotter, served by a node of its own.
+
+    ros2 run plotter_web web_ui --ros-args --params-file plotter.yaml        # http://127.0.0.1:8080
+    ros2 run plotter_web web_ui --ros-args -p host:=0.0.0.0 -p token:=<12+ characters>
+
+It is a client of whatever plotter runs in its namespace (default
+/plotter): it shows `state`, `ink` and `planned_path` live, sends jobs as
+`run_program` goals (files, jog moves) and `draw` goals (shapes), and calls
+the bridge's services (hold, resume, estop, reset, set_origin).  One job
+from the page at a time: a new one while it runs, or while the board is
+busy, disconnected or in alarm, is refused with the reason and nothing
+moves.  The server (app.py) runs on a thread of its own; it is bound to
+127.0.0.1 unless `host` says otherwise, and binding anywhere else needs a
+`token`, which every request must then carry.
+"""
+from __future__ import annotations
+
+import asyncio
+import ipaddress
+import sys
+import threading
+import time
+from typing import List, Optional
+
+from rclpy.action import ActionClient
+from rclpy.callback_groups import ReentrantCallbackGroup
+from rclpy.node import Node
+from std_srvs.srv import Trigger
+
+from plotter_bridge.gcode.limits import WorkArea
+from plotter_bridge.nodes.main import DEFAULT_NAMESPACE, run_node
+from plotter_bridge.nodes.params import WORK_AREA, NodeParameters, ParamSpec, check_work_area
+from plotter_bridge.nodes.qos import latched
+
+from .app import Refused, WebApp, serve, stop, token_ok
+from .jobs import Checked, check_program, check_upload, jog_program
+
+STATE_PERIOD = 0.1       # s: the page gets the board's state at most this often
+SERVICES = {"hold": "hold", "resume": "resume", "estop": "estop", "reset": "reset", "set_origin": "set_origin"}
+
+SPECS = (
+    ParamSpec("host", "127.0.0.1", "address the page is served on; anything but this machine's loopback "
+                                   "needs a token", read_only=True),
+    ParamSpec("port", 8080, "TCP port of the page", low=1, high=65535, read_only=True),
+    ParamSpec("token", "", "secret every request must carry (?token= on the page's address); needed to "
+                           "bind beyond loopback; at least 12 characters", read_only=True),
+    ParamSpec("svg_width", 120.0, "width an uploaded SVG drawing is scaled to", "mm", low=1.0, high=10000.0),
+    ParamSpec("default_feed", 1500.0, "drawing feed of uploaded SVG drawings", "mm/min", low=0.0, above=True,
+              high=1e5),
+    *WORK_AREA,
+)
+
+
+def check_web(values) -> Optional[str]:
+    host, token = str(values["host"]), str(values["token"])
+    try:
+        loopback = ipaddress.ip_address(host).is_loopback
+    except ValueError:
+        loopback = host == "localhost"
+    if token and not token_ok(token):
+        return "token = '...': must be at least 12 printable characters without spaces"
+    if not loopback and not token:
+        return (f"host = {host!r}: must be this machine's loopback (127.0.0.1) unless a token is given "
+                f"(-p token:=<secret>): the page drives the machine")
+    return check_work_area(values)
+
+
+class WebUi(Node):
+    def __init__(self, *, namespace: str = DEFAULT_NAMESPACE, **kwargs) -> None:
+        super().__init__("web_ui", namespace=namespace, **kwargs)
+        from nav_msgs.msg import Path
+        from plotter_interfaces.action import DrawShape, RunProgram
+        from plotter_interfaces.msg import BoardState
+        from visualization_msgs.msg import Marker
+        self.params = NodeParameters(self, SPECS, cross=check_web)
+        self._RunProgram, self._DrawShape = RunProgram, DrawShape
+        self._disconnected, self._idle = BoardState.DISCONNECTED, BoardState.IDLE
+        group = ReentrantCallbackGroup()
+        self._state = None
+        self._state_sent = 0.0
+        self._last_name = ""
+        self._ink: List[float] = []
+        self._planned: List[float] = []
+        self._job: Optional[dict] = None          # the page's job: name, status, progress...
+        self._handle = None
+        self._lock = threading.Lock()
+        self.create_subscription(BoardState, "state", self._on_state, latched(), callback_group=group)
+        self.create_subscription(Marker, "ink", self._on_ink, latched(), callback_group=group)
+        self.create_subscription(Path, "planned_path", self._on_planned, latched(), callback_group=group)
+        self._run_client = ActionClient(self, RunProgram, "run_program", callback_group=group)
+        self._draw_client = ActionClient(self, DrawShape, "draw", callback_group=group)
+        self._triggers = {name: self.create_client(Trigger, srv, callback_group=group)
+                          for name, srv in SERVICES.items()}
+        token = str(self.params["token"])
+        self.web = WebApp(self, token, log=None)
+        host, port = str(self.params["host"]), int(self.params["port"])
+        started, errors = threading.Event(), []
+        self._server = threading.Thread(target=serve, args=(self.web, host, port, started, errors),
+                                        name="web", daemon=True)
+        self._server.start()
+        started.wait(10.0)
+        if errors:
+            raise ValueError(f"port = {port}: cannot serve on {host}:{port}: {errors[0].strerror or errors[0]}")
+        where = f"http://{host}:{port}/" + ("?token=..." if token else "")
+        print(f"plotter page on {where}", flush=True)
+        self.get_logger().info(f"plotter page on {where} for the plotter in {self.get_namespace()}")
+
+    # --- what the plotter tells -------------------------------------------------------------
+    def area(self) -> WorkArea:
+        p = self.params
+        return WorkArea(float(p["x_min"]), float(p["x_max"]), float(p["y_min"]), float(p["y_max"]))
+
+    def _state_event(self) -> dict:
+        s = self._state
+        if s is None:
+            return {"type": "state", "state": "UNKNOWN", "connected": False,
+                    "last_error": "no state from serial_bridge yet"}
+        return {"type": "state", "state": s.state_name, "connected": s.state != self._disconnected,
+                "x_mm": s.x_mm, "y_mm": s.y_mm, "pen_down": s.pen_down, "position_known": s.position_known,
+                "queue_free": s.queue_free, "queue_size": s.queue_size, "last_error": s.last_error,
+                "firmware": s.firmware_version}
+
+    def _on_state(self, msg) -> None:
+        self._state = msg
+        now = time.monotonic()
+        changed, self._last_name = self._last_name != msg.state_name, msg.state_name
+        if changed or now - self._state_sent >= STATE_PERIOD:
+            self._state_sent = now
+            self.web.publish(self._state_event())
+
+    def _on_ink(self, msg) -> None:
+        # A line list in metres; the page draws in millimetres.
+        self._ink = [round(v * 1000.0, 3) for p in msg.points for v in (p.x, p.y)]
+        self.web.publish({"type": "ink", "points": self._ink})
+
+    def _on_planned(self, msg) -> None:
+        self._planned = [round(v * 1000.0, 3) for p in msg.poses for v in (p.pose.position.x, p.pose.position.y)]
+        self.web.publish({"type": "planned", "points": self._planned})
+
+    def snapshot(self) -> list:
+        a = self.area()
+        events = [{"type": "config", "area": [a.x_min, a.x_max, a.y_min, a.y_max], "namespace": self.get_namespace(),
+                   "jog_steps": [0.1, 1.0, 10.0]},
+                  self._state_event(), {"type": "ink", "points": self._ink},
+                  {"type": "planned", "points": self._planned}]
+        if self._job is not None:
+            events.append({"type": "job", **self._job})
+        return events
+
+    def _pen(self) -> tuple:
+        s = self._state
+        return (s.x_mm, s.y_mm) if s is not None else (0.0, 0.0)
+
+    # --- what the page asks ------------------------------------------------------------------
+    def check(self, filename: str, data: bytes, width: Optional[float]) -> Checked:
+        return check_upload(filename, data, self.area(), self._pen(),
+                            width if width is not None else float(self.params["svg_width"]),
+                            float(self.params["default_feed"]))
+
+    def _ready_for_a_job(self) -> None:
+        s = self._state
+        if s is None or s.state == self._disconnected:
+            why = s.last_error if s is not None and s.last_error else "no state from serial_bridge"
+            raise Refused(f"the board is not connected ({why}): nothing was sent")
+        job = self._job
+        if job is not None and job["status"] in ("sending", "running"):
+            raise Refused(f"busy: {job['name']!r} is running ({job['progress'] * 100:.0f}%): wait for it or "
+                          f"cancel it")
+        if s.state_name == "ALARM":
+            raise Refused("the board is in alarm: press reset first")
+        if s.state != self._idle or s.queue_free != s.queue_size:
+            raise Refused(f"busy: the board is {s.state_name.lower()} with a job from elsewhere")
+
+    async def run(self, job: Checked) -> str:
+        self._ready_for_a_job()
+        return await self._send(self._run_client, self._RunProgram.Goal(program=job.program, name=job.name),
+                                job.name, "run_program", "gcode_streamer")
+
+    async def jog(self, dx: float, dy: float) -> str:
+        try:
+            program = jog_program(dx, dy)
+        except ValueError as exc:
+            raise Refused(str(exc), 400) from None
+        self._ready_for_a_job()
+        checked = check_program(program, "jog", self.area(), self._pen())
+        if not checked.ok:
+            raise Refused(f"jog: {checked.errors[0]['message']}", 400)
+        return await self._send(self._run_client, self._RunProgram.Goal(program=program, name="jog"),
+                                "jog", "run_program", "gcode_streamer")
+
+    async def draw(self, fields: dict) -> str:
+        from plotter_interfaces.msg import ShapeGoal
+        goal = ShapeGoal()
+        try:
+            goal.shape = str(fields.get("shape", ""))
+            for name in ("x", "y", "size", "feed", "x2", "y2", "start_angle", "end_angle"):
+                setattr(goal, name, float(fields.get(name, 0.0) or 0.0))
+            goal.clockwise, goal.reverse = bool(fields.get("clockwise")), bool(fields.get("reverse"))
+        except (TypeError, ValueError, AssertionError) as exc:
+            raise Refused(f"shape: {exc}", 400) from None
+        self._ready_for_a_job()
+        name = (goal.shape or "shape") + (" reversed" if goal.reverse else "")
+        return await self._send(self._draw_client, self._DrawShape.Goal(shape=goal), name, "draw", "shape_server")
+
+    async def button(self, name: str) -> str:
+        if name == "cancel":
+            handle = self._handle
+            if handle is None:
+                raise Refused("nothing of this page's is running")
+            await _wrap(handle.cancel_goal_async())
+            return "cancel requested"
+        client = self._triggers[name]
+        if not client.service_is_ready():
+            raise Refused(f"{self.get_namespace()}/{SERVICES[name]} does not answer: is serial_bridge running?")
+        response = await asyncio.wait_for(_wrap(client.call_async(Trigger.Request())), 10.0)
+        if not response.success:
+            raise Refused(f"{name}: {response.message}")
+        return f"{name}: {response.message}"
+
+    async def _send(self, client: ActionClient, goal, name: str, action: str, node: str) -> str:
+        if not client.server_is_ready():
+            raise Refused(f"{self.get_namespace()}/{action} does not answer: is {node} running?")
+        self._set_job(name=name, status="sending", progress=0.0, seconds_left=0.0, line=0, message="")
+        try:
+            handle = await asyncio.wait_for(_wrap(client.send_goal_async(
+                goal, feedback_callback=lambda fb: self._on_feedback(fb.feedback))), 10.0)
+        except asyncio.TimeoutError:
+            self._set_job(status="aborted", message=f"{node} did not answer")
+            raise Refused(f"{node} did not answer the goal") from None
+        if not handle.accepted:
+            self._set_job(status="aborted", message=f"{node} rejected the job (its queue is full)")
+            raise Refused(f"{node} rejected the job (its queue is full)")
+        self._handle = handle
+        self._set_job(status="running")
+        handle.get_result_async().add_done_callback(lambda f: self._on_result(handle, f.result()))
+        return f"{name}: started"
+
+    def _on_feedback(self, fb) -> None:
+        self._set_job(progress=float(fb.progress), seconds_left=float(fb.seconds_left),
+                      line=int(fb.current_line), jobs_ahead=int(fb.jobs_ahead))
+
+    def _on_result(self, handle, wrapped) -> None:
+        from action_msgs.msg import GoalStatus
+        status = {GoalStatus.STATUS_SUCCEEDED: "succeeded", GoalStatus.STATUS_CANCELED: "canceled"}.get(
+            wrapped.status, "aborted")
+        message = wrapped.result.message
+        if self._handle is handle:
+            self._handle = None
+        self._set_job(status=status, message=message, progress=1.0 if status == "succeeded" else None,
+                      seconds_left=0.0)
+        if status != "succeeded":
+            self.web.publish({"type": "message", "level": "error" if status == "aborted" else "info",
+                              "text": f"{self._job['name']}: {status}: {message}"})
+
+    def _set_job(self, **fields) -> None:
+        with self._lock:
+            job = dict(self._job or {})
+            if fields.get("status") == "sending":
+                job = {"jobs_ahead": 0}
+            job.update({k: v for k, v in fields.items() if v is not None})
+            self._job = job
+        self.web.publish({"type": "job", **job})
+
+    def destroy_node(self) -> None:
+        stop(self.web)
+        self._server.join(timeout=5.0)
+        super().destroy_node()
+
+
+async def _wrap(future):
+    """An rclpy future, awaited on the server's asyncio loop."""
+    loop = asyncio.get_running_loop()
+    done = loop.create_future()
+
+    def settle(f) -> None:
+        def set_it() -> None:
+            if done.done():
+                return
+            exc = f.exception()
+            done.set_exception(exc) if exc else done.set_result(f.result())
+        loop.call_soon_threadsafe(set_it)
+    future.add_done_callback(settle)
+    return await done
+
+
+def main(args=None) -> int:
+    return run_node(WebUi, "web_ui", args)
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,315 @@
+"""The web page, driven in headless Chromium (Debian's chromium and
+chromium-driver, through Selenium) against the nodes on the mock board,
+each node its own process; and its access rules, over plain HTTP."""
+from __future__ import annotations
+
+import json
+import os
+import random
+import re
+import socket
+import time
+import urllib.error
+import urllib.request
+from pathlib import Path
+
+import pytest
+
+from node_processes import NodeProcess, PlotterGraph, params_file, read_trace, wait_until
+
+pytestmark = pytest.mark.ros
+
+REPO = Path(__file__).resolve().parent.parent
+STEPS_PER_MM = 80.0
+CHROME_ARGS = ("--headless=new", "--no-sandbox", "--disable-gpu", "--disable-quic", "--no-first-run",
+               "--disable-background-networking", "--disable-component-update", "--disable-sync",
+               "--disable-dev-shm-usage", "--window-size=1400,1000")
+
+
+def free_port() -> int:
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        return s.getsockname()[1]
+
+
+def web_ui(domain: int, *args: str) -> NodeProcess:
+    return NodeProcess("plotter_web.web_ui_node", domain, ("-r", "__ns:=/plotter", "--params-file", params_file(),
+                                                           *args))
+
+
+def browser():
+    from selenium import webdriver
+    from selenium.webdriver.chrome.service import Service
+    options = webdriver.ChromeOptions()
+    options.binary_location = "/usr/bin/chromium"
+    for a in CHROME_ARGS:
+        options.add_argument(a)
+    return webdriver.Chrome(service=Service("/usr/bin/chromedriver"), options=options)
+
+
+@pytest.fixture(scope="module")
+def page(tmp_path_factory):
+    domain = random.SystemRandom().randint(110, 200)
+    work = tmp_path_factory.mktemp("web")
+    graph = PlotterGraph(domain, work)
+    port = free_port()
+    ui = web_ui(domain, "-p", f"port:={port}")
+    driver = None
+    try:
+        wait_until(lambda: f"plotter page on http://127.0.0.1:{port}/" in ui.output(), 30, "the web server")
+        driver = browser()
+        driver.get(f"http://127.0.0.1:{port}/")
+        graph.driver, graph.ui, graph.url, graph.work = driver, ui, f"http://127.0.0.1:{port}/", work
+        wait_until(lambda: text(driver, "state") == "IDLE", 60, "IDLE on the page")
+        yield graph
+    except BaseException:
+        print(graph.outputs(), "\n--- web_ui\n", ui.output())
+        raise
+    finally:
+        if driver is not None:
+            driver.quit()
+        assert ui.interrupt() == 0, ui.output()
+        ui.close()
+        graph.close()
+
+
+def text(driver, element_id: str) -> str:
+    return driver.find_element("id", element_id).text
+
+
+def upload(page, name: str, content: str) -> None:
+    path = page.work / name
+    path.write_text(content)
+    page.driver.find_element("id", "file").send_keys(str(path))
+
+
+def ink_points(driver):
+    d = driver.find_element("id", "ink").get_attribute("d") or ""
+    nums = [float(v) for v in re.findall(r"-?\d+(?:\.\d+)?", d)]
+    return [(nums[k], -nums[k + 1]) for k in range(0, len(nums) - 1, 2)]
+
+
+def job_count(driver) -> str:
+    return driver.find_element("id", "job-count").get_attribute("textContent")
+
+
+def click_for_job(page, element_id: str) -> None:
+    """Click a button that starts a job, and wait until the page shows the new job."""
+    count = job_count(page.driver)
+    page.driver.find_element("id", element_id).click()
+    wait_until(lambda: job_count(page.driver) != count, 30, "the job to be sent")
+
+
+def wait_job(page, status: str, timeout: float = 120) -> None:
+    wait_until(lambda: text(page.driver, "job-status") == status, timeout, f"the job to be {status}")
+
+
+def test_an_uploaded_program_is_checked_run_and_drawn_live(page):
+    program = "(web square)\nG21 G90\nG0 X30 Y30\nM3\nG1 X70 Y30 F3000\nG1 X70 Y70\nG2 X30 Y70 I-20 J0\n" \
+              "G1 X30 Y30\nM5\nM2\n"
+    before = len(read_trace(page.trace))
+    upload(page, "square.gcode", program)
+    wait_until(lambda: "fits the work area" in text(page.driver, "check-result"), 30, "the check")
+    assert len(page.driver.find_elements("css selector", "#preview polyline")) == 1
+    click_for_job(page, "run")
+    wait_job(page, "succeeded")
+    assert text(page.driver, "job-name") == "web square"
+    trace = [(x, y) for _, x, y in read_trace(page.trace)[before:]]
+    steps = set(trace)
+    # The ink comes once a second: the last side, from (30, 70) down to (30, 30), on the page.
+    wait_until(lambda: any(abs(x - 30) < 0.02 and 35 < y < 65 for x, y in ink_points(page.driver)),
+               15, "the ink of the last side")
+    ink = ink_points(page.driver)
+    # Every ink point is a place the board stepped to; the ink spans what was drawn.
+    drawn = [p for p in ink if 29.9 <= p[0] <= 70.1 and 29.9 <= p[1] <= 70.1]
+    assert len(drawn) > 20
+    assert all((round(x * STEPS_PER_MM), round(y * STEPS_PER_MM)) in steps for x, y in drawn)
+    xs, ys = [p[0] for p in drawn], [p[1] for p in drawn]
+    # Positions come some 25 times a second: the ink reaches the square's sides within a sample's travel.
+    assert (min(xs), max(xs), min(ys), max(ys)) == pytest.approx((30, 70, 30, 70), abs=2.5)
+    assert text(page.driver, "x") == "30.000" and text(page.driver, "y") == "30.000"
+
+
+def test_a_bad_file_shows_its_error_at_its_line_and_nothing_moves(page):
+    before = len(read_trace(page.trace))
+    upload(page, "bad.gcode", "G21 G90\nG0 X10 Y10\nG1 X500 Y10 F1000\nM2\n")
+    wait_until(lambda: page.driver.find_elements("css selector", "#errors li"), 30, "the error")
+    error = page.driver.find_element("css selector", "#errors li").text
+    assert error.startswith("line 3: move to X500") and "G1 X500 Y10 F1000" in error, error
+    assert not page.driver.find_element("id", "run").is_enabled()
+    upload(page, "garbage.svg", "<svg this is not")
+    wait_until(lambda: "cannot read" in text(page.driver, "errors"), 30, "the SVG's error")
+    assert "cannot be drawn" in text(page.driver, "message")
+    time.sleep(0.5)
+    assert len(read_trace(page.trace)) == before
+
+
+def test_an_svg_file_is_drawn(page):
+    svg = ('<svg xmlns="http://www.w3.org/2000/svg" width="50mm" height="50mm" viewBox="0 0 50 50">'
+           '<rect x="5" y="5" width="40" height="40" fill="none" stroke="black"/></svg>')
+    page.driver.find_element("id", "svg-width").clear()
+    page.driver.find_element("id", "svg-width").send_keys("40")
+    upload(page, "box.svg", svg)
+    wait_until(lambda: "fits the work area" in text(page.driver, "check-result"), 30, "the SVG's check")
+    click_for_job(page, "run")
+    wait_job(page, "succeeded")
+
+
+def test_hold_resume_and_a_job_while_busy_is_refused(page):
+    before = len(read_trace(page.trace))
+    upload(page, "slow.gcode", "(slow)\nG21 G90\nG0 X20 Y120\nM3\n" + "G1 X180 Y120 F1500\nG1 X20 Y121\n" * 2
+           + "M5\nM2\n")
+    wait_until(lambda: "fits" in text(page.driver, "check-result"), 30, "the check")
+    click_for_job(page, "run")
+    wait_until(lambda: text(page.driver, "state") == "RUNNING", 30, "RUNNING")
+    page.driver.find_element("id", "draw").click()                 # a shape while the file runs
+    wait_until(lambda: "busy" in text(page.driver, "message"), 10, "the refusal")
+    assert "'slow' is running" in text(page.driver, "message")
+    page.driver.find_element("id", "hold").click()
+    wait_until(lambda: text(page.driver, "state") == "HOLD", 15, "HOLD")
+    held = len(read_trace(page.trace))
+    time.sleep(0.6)
+    assert len(read_trace(page.trace)) == held
+    page.driver.find_element("id", "resume").click()
+    wait_until(lambda: text(page.driver, "state") == "RUNNING", 15, "RUNNING again")
+    wait_until(lambda: "left" in text(page.driver, "job-left") or text(page.driver, "job-left") != "–", 10,
+               "the time left")
+    wait_job(page, "succeeded", 180)
+    assert len(read_trace(page.trace)) > held > before
+
+
+def test_emergency_stop_and_reset(page):
+    from selenium.webdriver.support.ui import Select
+    Select(page.driver.find_element("id", "shape")).select_by_visible_text("circle")
+    for field, value in (("shape-x", "100"), ("shape-y", "100"), ("shape-size", "60"), ("shape-feed", "900")):
+        el = page.driver.find_element("id", field)
+        el.clear()
+        el.send_keys(value)
+    click_for_job(page, "draw")
+    wait_until(lambda: text(page.driver, "state") == "RUNNING", 30, "RUNNING")
+    time.sleep(0.5)
+    page.driver.find_element("id", "estop").click()
+    wait_until(lambda: text(page.driver, "state") == "ALARM", 10, "ALARM")
+    wait_job(page, "aborted", 30)
+    stopped = read_trace(page.trace)
+    time.sleep(1.0)
+    assert read_trace(page.trace) == stopped
+    page.driver.find_element("id", "draw").click()
+    wait_until(lambda: "alarm" in text(page.driver, "message"), 10, "the alarm refusal")
+    page.driver.find_element("id", "reset").click()
+    wait_until(lambda: text(page.driver, "state") == "IDLE", 15, "IDLE after reset")
+
+
+def test_jog_moves_the_pen_while_idle(page):
+    from selenium.webdriver.support.ui import Select
+    wait_until(lambda: text(page.driver, "state") == "IDLE", 30, "IDLE")
+    x0 = float(text(page.driver, "x"))
+    Select(page.driver.find_element("id", "jog-step")).select_by_visible_text("10")
+    right = page.driver.find_element("css selector", ".jog[data-dx='1']")
+    wait_until(right.is_enabled, 10, "the jog buttons")
+    count = job_count(page.driver)
+    right.click()
+    wait_until(lambda: job_count(page.driver) != count, 30, "the jog to be sent")
+    wait_until(lambda: abs(float(text(page.driver, "x")) - (x0 + 10.0)) < 1e-6, 30, "the pen 10 mm to the right")
+    wait_job(page, "succeeded", 30)
+    Select(page.driver.find_element("id", "jog-step")).select_by_visible_text("0.1")
+    down = page.driver.find_element("css selector", ".jog[data-dy='-1']")
+    wait_until(down.is_enabled, 10, "the jog buttons again")
+    y0 = float(text(page.driver, "y"))
+    down.click()
+    wait_until(lambda: abs(float(text(page.driver, "y")) - (y0 - 0.1)) < 0.02, 30, "the pen 0.1 mm down")
+
+
+def test_a_disconnected_board_is_shown_and_nothing_is_sent(tmp_path):
+    domain = random.SystemRandom().randint(110, 200)
+    bridge = NodeProcess("plotter_bridge.nodes.serial_bridge", domain,
+                         ("-r", "__ns:=/plotter", "--params-file", params_file(), "-p", "port:=/nonexistent/tty9"))
+    port = free_port()
+    ui = web_ui(domain, "-p", f"port:={port}")
+    driver = browser()
+    try:
+        wait_until(lambda: "plotter page on" in ui.output(), 30, "the web server")
+        driver.get(f"http://127.0.0.1:{port}/")
+        wait_until(lambda: "not connected" in text(driver, "last-error")
+                   and "/nonexistent/tty9" in text(driver, "last-error"), 30, "the bridge's error on the page")
+        driver.find_element("id", "draw").click()
+        wait_until(lambda: "not connected" in text(driver, "message"), 10, "the refusal")
+        assert driver.find_element("id", "message").get_attribute("class") == "error"
+    finally:
+        driver.quit()
+        ui.interrupt()
+        ui.close()
+        bridge.interrupt()
+        bridge.close()
+
+
+def _request(url: str, method: str = "GET", headers=None, data=None):
+    req = urllib.request.Request(url, method=method, headers=headers or {}, data=data)
+    try:
+        with urllib.request.urlopen(req, timeout=10) as r:
+            return r.status, r.read(), r.headers
+    except urllib.error.HTTPError as e:
+        return e.code, e.read(), e.headers
+
+
+def test_binding_beyond_loopback_needs_a_token_and_every_request_carries_it():
+    domain = random.SystemRandom().randint(110, 200)
+    open_ui = web_ui(domain, "-p", "host:=0.0.0.0", "-p", f"port:={free_port()}")
+    wait_until(lambda: not open_ui.alive(), 30, "web_ui without a token to exit")
+    out = open_ui.output()
+    open_ui.close()
+    assert open_ui.proc.returncode == 1 and "Traceback" not in out, out
+    assert "host = '0.0.0.0'" in out and "token" in out, out
+
+    token = "s3cret-plotter-token"
+    port = free_port()
+    ui = web_ui(domain, "-p", "host:=0.0.0.0", "-p", f"port:={port}", "-p", f"token:={token}")
+    base = f"http://127.0.0.1:{port}"
+    try:
+        wait_until(lambda: "plotter page on" in ui.output(), 30, "the web server")
+        assert token not in ui.output()
+        refused = [("GET", "/", {}), ("GET", "/static/app.js", {}), ("GET", "/ws", {}),
+                   ("POST", "/api/jog", {"X-Plotter": "1"}), ("POST", "/api/button/estop", {"X-Plotter": "1"}),
+                   ("GET", "/?token=wrong-token-123", {}), ("GET", "/static/app.js", {"Authorization": "Bearer x"}),
+                   ("GET", "/", {"Cookie": "plotter_token=nope"})]
+        for method, path, headers in refused:
+            status, body, _ = _request(base + path, method, headers, b"{}" if method == "POST" else None)
+            assert status == 401, (method, path, status)
+            assert b"token" in body
+        status, body, headers = _request(f"{base}/?token={token}")
+        assert status == 200 and b"<title>Plotter</title>" in body
+        cookie = headers.get("Set-Cookie", "")
+        assert cookie.startswith("plotter_token=") and "HttpOnly" in cookie and "SameSite=Strict" in cookie
+        status, _, _ = _request(f"{base}/static/app.js", headers={"Cookie": f"plotter_token={token}"})
+        assert status == 200
+        status, _, _ = _request(f"{base}/static/app.js", headers={"Authorization": f"Bearer {token}"})
+        assert status == 200
+        # The token is not enough for a POST from another site's page: it cannot send X-Plotter.
+        status, body, _ = _request(f"{base}/api/button/hold", "POST", {"Authorization": f"Bearer {token}"}, b"{}")
+        assert status == 403
+        status, body, _ = _request(f"{base}/api/jog", "POST", {"Authorization": f"Bearer {token}", "X-Plotter": "1",
+                                                               "Content-Type": "application/json"},
+                                   json.dumps({"dx": 1e9, "dy": 0}).encode())
+        assert status == 400 and b"jog" in body
+    finally:
+        ui.interrupt()
+        ui.close()
+
+
+def test_the_page_is_served_from_the_package_without_a_cdn():
+    static = REPO / "ros_ws" / "src" / "plotter_web" / "plotter_web" / "static"
+    for f in static.iterdir():
+        body = f.read_text()
+        assert not re.search(r"(src|href)=\"(https?:)?//", body), f.name
+        assert "import " not in body or f.suffix != ".js"
+
+
+def test_the_screenshot_script_draws_through_the_page(tmp_path):
+    import subprocess
+    import sys
+    out = tmp_path / "page.png"
+    r = subprocess.run([sys.executable, str(REPO / "scripts" / "web_screenshot.py"), "--out", str(out),
+                        "--figures", "1"], capture_output=True, text=True, timeout=300,
+                       env=dict(os.environ, ROS_DOMAIN_ID=str(random.SystemRandom().randint(110, 200))))
+    assert r.returncode == 0, r.stdout + r.stderr
+    assert out.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n" and out.stat().st_size > 20000
