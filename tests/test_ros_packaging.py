@@ -123,18 +123,13 @@ def test_colcon_test_runs_each_packages_own_tests_and_they_pass(tmp_path):
     env = _ros_env()
     ws = REPO / "ros_ws"
     # Built and tested in build and install trees of the test's own, beside the project's.
-    r = subprocess.run([str(REPO / ".venv" / "bin" / "colcon"), "--log-base", str(tmp_path / "log"), "build",
-                        "--base-paths", "src", "--build-base", str(tmp_path / "build"),
-                        "--install-base", str(tmp_path / "install"), "--packages-select", *PYTHON_PACKAGES,
-                        "--event-handlers", "console_direct-"],
-                       cwd=ws, capture_output=True, text=True, env=env, timeout=600)
-    assert r.returncode == 0, r.stdout + r.stderr
-    r = subprocess.run([str(REPO / ".venv" / "bin" / "colcon"), "--log-base", str(tmp_path / "log"), "test",
-                        "--base-paths", "src", "--build-base", str(tmp_path / "build"),
-                        "--install-base", str(tmp_path / "install"), "--packages-select", *PYTHON_PACKAGES,
-                        "--event-handlers", "console_direct-"],
-                       cwd=ws, capture_output=True, text=True, env=env, timeout=600)
-    assert r.returncode == 0, r.stdout + r.stderr
+    for verb in ("build", "test"):
+        r = subprocess.run([str(REPO / ".venv" / "bin" / "colcon"), "--log-base", str(tmp_path / "log"), verb,
+                            "--base-paths", "src", "--build-base", str(tmp_path / "build"),
+                            "--install-base", str(tmp_path / "install"), "--packages-select", *PYTHON_PACKAGES,
+                            "--event-handlers", "console_direct-"],
+                           cwd=ws, capture_output=True, text=True, env=env, timeout=600)
+        assert r.returncode == 0, r.stdout + r.stderr
     r = subprocess.run([str(REPO / ".venv" / "bin" / "colcon"), "test-result", "--test-result-base",
                         str(tmp_path / "build"), "--verbose"], capture_output=True, text=True, env=env, timeout=120)
     assert r.returncode == 0, r.stdout + r.stderr
