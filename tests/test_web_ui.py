@@ -167,6 +167,7 @@ def test_hold_resume_and_a_job_while_busy_is_refused(page):
     assert "'slow' is running" in text(page.driver, "message")
     page.driver.find_element("id", "hold").click()
     wait_until(lambda: text(page.driver, "state") == "HOLD", 15, "HOLD")
+    time.sleep(0.5)                       # a hold brakes along the ramp before the pen rests
     held = len(read_trace(page.trace))
     time.sleep(0.6)
     assert len(read_trace(page.trace)) == held
@@ -200,24 +201,51 @@ def test_emergency_stop_and_reset(page):
     wait_until(lambda: text(page.driver, "state") == "IDLE", 15, "IDLE after reset")
 
 
-def test_jog_moves_the_pen_while_idle(page):
+def test_cancel_stops_the_job_and_set_origin_zeroes_the_position(page):
+    wait_until(lambda: text(page.driver, "state") == "IDLE", 30, "IDLE")
+    upload(page, "long.gcode", "(long)\nG21 G90\nG0 X20 Y40\nM3\n" + "G1 X180 Y40 F1200\nG1 X20 Y41\n" * 3
+           + "M5\nM2\n")
+    wait_until(lambda: "fits" in text(page.driver, "check-result"), 30, "the check")
+    click_for_job(page, "run")
+    wait_until(lambda: text(page.driver, "state") == "RUNNING", 30, "RUNNING")
+    time.sleep(1.0)
+    page.driver.find_element("id", "cancel").click()
+    wait_job(page, "canceled", 30)
+    wait_until(lambda: text(page.driver, "state") == "IDLE", 30, "IDLE after the cancel")
+    stopped = read_trace(page.trace)
+    time.sleep(1.0)
+    assert read_trace(page.trace) == stopped, "the board moved after the cancel"
+    assert stopped[-1][1] < 179 * STEPS_PER_MM or stopped[-1][2] < 41 * STEPS_PER_MM
+    page.driver.find_element("id", "set-origin").click()
+    wait_until(lambda: (text(page.driver, "x"), text(page.driver, "y")) == ("0.000", "0.000"), 15, "the new origin")
+
+
+def test_jog_moves_the_pen_while_idle_and_never_out_of_the_area(page):
     from selenium.webdriver.support.ui import Select
     wait_until(lambda: text(page.driver, "state") == "IDLE", 30, "IDLE")
-    x0 = float(text(page.driver, "x"))
+    page.driver.find_element("id", "set-origin").click()          # the pen on the area's lower left corner
+    wait_until(lambda: (text(page.driver, "x"), text(page.driver, "y")) == ("0.000", "0.000"), 15, "the origin")
+
+    def jog(selector: str, step: str, x: float, y: float) -> None:
+        Select(page.driver.find_element("id", "jog-step")).select_by_visible_text(step)
+        button = page.driver.find_element("css selector", selector)
+        wait_until(button.is_enabled, 10, "the jog buttons")
+        count = job_count(page.driver)
+        button.click()
+        wait_until(lambda: job_count(page.driver) != count, 30, "the jog to be sent")
+        wait_job(page, "succeeded", 30)
+        wait_until(lambda: (float(text(page.driver, "x")), float(text(page.driver, "y"))) == (x, y), 15,
+                   f"the pen at {x}, {y}")
+    jog(".jog[data-dx='1']", "10", 10.0, 0.0)
+    jog(".jog[data-dy='1']", "0.1", 10.0, 0.1)
+    jog(".jog[data-dy='1']", "1", 10.0, 1.1)
+    jog(".jog[data-dx='-1']", "1", 9.0, 1.1)
+    before = len(read_trace(page.trace))
     Select(page.driver.find_element("id", "jog-step")).select_by_visible_text("10")
-    right = page.driver.find_element("css selector", ".jog[data-dx='1']")
-    wait_until(right.is_enabled, 10, "the jog buttons")
-    count = job_count(page.driver)
-    right.click()
-    wait_until(lambda: job_count(page.driver) != count, 30, "the jog to be sent")
-    wait_until(lambda: abs(float(text(page.driver, "x")) - (x0 + 10.0)) < 1e-6, 30, "the pen 10 mm to the right")
-    wait_job(page, "succeeded", 30)
-    Select(page.driver.find_element("id", "jog-step")).select_by_visible_text("0.1")
-    down = page.driver.find_element("css selector", ".jog[data-dy='-1']")
-    wait_until(down.is_enabled, 10, "the jog buttons again")
-    y0 = float(text(page.driver, "y"))
-    down.click()
-    wait_until(lambda: abs(float(text(page.driver, "y")) - (y0 - 0.1)) < 0.02, 30, "the pen 0.1 mm down")
+    page.driver.find_element("css selector", ".jog[data-dy='-1']").click()      # to y = -8.9: off the area
+    wait_until(lambda: "outside the work area" in text(page.driver, "message"), 10, "the refusal")
+    time.sleep(0.5)
+    assert len(read_trace(page.trace)) == before
 
 
 def test_a_disconnected_board_is_shown_and_nothing_is_sent(tmp_path):
