@@ -20,6 +20,7 @@ from typing import List, TextIO
 from plotter_bridge.gcode.types import GCodeError
 from plotter_bridge.motion.kinematics import DEFAULT_Z_STEPS_PER_MM
 
+from .check import dialect_args, gcode_options
 from .command import EXIT_BAD_PROGRAM, EXIT_FAILED, EXIT_OK, Command
 
 HANGING_AREA = (0.0, 800.0, 0.0, 1000.0)   # seed 003's board below its pulleys, mm
@@ -75,7 +76,7 @@ def _graph_options(args: argparse.Namespace):
         raise ValueError("--z-steps-per-mm must be a positive number")
     if args.z_range and not args.z_range[0] < args.z_range[1]:
         raise ValueError("--z-range: Z_MIN must be below Z_MAX")
-    return GraphOptions(port=args.port or "", mock=args.mock, baud=args.baud,
+    return GraphOptions(gcode=gcode_options(args), port=args.port or "", mock=args.mock, baud=args.baud,
                         steps_per_mm=args.steps_per_mm, trace=args.trace,
                         namespace=args.namespace, faults=faults, seq_log=args.seq_log,
                         journal_dir=args.journal, machine=args.machine,
@@ -148,7 +149,7 @@ def write_pictures(args: argparse.Namespace, text: str, name: str, start: tuple,
                    trace_path: str, samples: List[tuple], err: TextIO) -> None:
     """--svg/--png: what was drawn (the mock's step trace, else reported positions) over the program."""
     from .picture import program_polylines, runs_by_pen, runs_near_path, write_picture
-    programmed = program_polylines(text, start) if text else []
+    programmed = program_polylines(text, start, gcode_options(args)) if text else []
     if trace_path:
         from plotter_bridge.sim.trace import read_trace
         spm = args.steps_per_mm
@@ -163,14 +164,16 @@ def write_pictures(args: argparse.Namespace, text: str, name: str, start: tuple,
 
 def run_program_text(text: str, name: str, args: argparse.Namespace,
                      out: TextIO = sys.stdout, err: TextIO = sys.stderr) -> int:
-    from plotter_bridge.gcode.parser import parse
+    from plotter_bridge.gcode.parser import parse_program
     resume_id = getattr(args, "resume_id", "")
     try:
         if not resume_id:
             # Syntax first; the work area is checked from the pen's real position.
-            parse(text, z_axis=getattr(args, "z_axis", False))
-    except GCodeError as exc:
-        err.write(f"{name}:{exc}\n")
+            program = parse_program(text, z_axis=getattr(args, "z_axis", False), options=gcode_options(args))
+            for note in program.notes:
+                err.write(f"{name}:{note}\n")
+    except ValueError as exc:  # GCodeError, or bad dialect options
+        err.write(f"{name}:{exc}\n" if isinstance(exc, GCodeError) else f"{exc}\n")
         return EXIT_BAD_PROGRAM
     svg_out, png_out = getattr(args, "svg", ""), getattr(args, "png", "")
     if (png_out and Path(png_out).suffix.lower() != ".png") or \
@@ -216,6 +219,7 @@ def run_program_text(text: str, name: str, args: argparse.Namespace,
 
 def _configure_stream(p: argparse.ArgumentParser) -> None:
     p.add_argument("file", metavar="FILE.gcode", help="G-code program to draw")
+    dialect_args(p)
     connection_args(p)
 
 

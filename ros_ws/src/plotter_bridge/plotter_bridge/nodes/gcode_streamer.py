@@ -103,6 +103,11 @@ class GCodeStreamer(Node):
                                                           "down to its pace (planner.cap_for_link) at this baud rate; "
                                                           "-1: serial_bridge's, 0: off"))
         self.declare_parameter("tolerance", 0.1, d(description="hanging machine: largest pen deviation from the programmed path, mm"))
+        self.declare_parameter("dialect", "linuxcnc", d(description="G-code dialect: linuxcnc, grbl (M3 S power word) or "
+                                                               "marlin (M300 pen servo, G4 P in ms)"))
+        self.declare_parameter("pen_up_z", 0.0, d(description="z_mode pen: Z above this lifts the pen, at or below lowers it, mm"))
+        self.declare_parameter("marlin_pen_down", 30.0, d(description="dialect marlin: the M300 S angle that lowers the pen"))
+        self.declare_parameter("marlin_pen_up", 50.0, d(description="dialect marlin: the M300 S angle that lifts the pen"))
         self.machine = declare_machine(self)
         self.declare_parameter("journal_dir", "", d(description="directory of the job journal ('' = $ROS_HOME/plotter_journal)"))
         self.declare_parameter("lease", 2.0, d(description="seconds the bridge goes on with a job after this node stops renewing it"))
@@ -132,7 +137,7 @@ class GCodeStreamer(Node):
     def _read_config(self) -> StreamerConfig:
         g = lambda n: float(self.get_parameter(n).value)  # noqa: E731
         names = ("steps_per_mm", "rapid_feed", "x_min", "x_max", "y_min", "y_max", "z_min", "z_max",
-                 "acceleration", "junction_deviation", "tolerance")
+                 "acceleration", "junction_deviation", "tolerance", "pen_up_z", "marlin_pen_down", "marlin_pen_up")
         v = dict(zip(names, (g(n) for n in names)))
         if not all(math.isfinite(x) for x in v.values()) or v["steps_per_mm"] <= 0 or v["rapid_feed"] <= 0 \
                 or v["x_min"] >= v["x_max"] or v["y_min"] >= v["y_max"] or v["z_min"] >= v["z_max"] \
@@ -143,7 +148,9 @@ class GCodeStreamer(Node):
                               v["acceleration"], v["junction_deviation"],
                               bool(self.get_parameter("lookahead").value),
                               self.machine.kind, self.machine.hanging, v["tolerance"],
-                              z_mode=self.machine.z_mode, z_steps_per_mm=self.machine.z_steps_per_mm)
+                              z_mode=self.machine.z_mode, z_steps_per_mm=self.machine.z_steps_per_mm,
+                              dialect=str(self.get_parameter("dialect").value), pen_up_z=v["pen_up_z"],
+                              marlin_pen_down=v["marlin_pen_down"], marlin_pen_up=v["marlin_pen_up"])
 
     def _on_state(self, msg: BoardState) -> None:
         with self._board_changed:
