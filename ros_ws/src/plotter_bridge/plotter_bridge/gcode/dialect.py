@@ -70,7 +70,7 @@ DIALECTS: Mapping[str, Dialect] = {
                              f"G54 is the only one" for code in (550, 560, 570, 580, 590)}},
         power_word=True),
     MARLIN: Dialect(
-        MARLIN, letters=frozenset("S"), m_codes=frozenset((300,)),
+        MARLIN, letters=frozenset("S"), m_codes=frozenset((300,)), noted_g=_COMMON_NOTED_G,
         noted_m={17: "M17 stepper motors on: no effect", 18: "M18 stepper motors off: no effect",
                  84: "M84 stepper motors off: no effect"},
         refused_g=_COMMON_REFUSED_G, dwell_p_seconds=0.001, servo_pen=True),
