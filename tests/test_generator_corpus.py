@@ -55,17 +55,7 @@ def run_check(path: Path, *extra: str) -> Tuple[int, str, str]:
 
 
 def move_points(m: Move) -> List[Tuple[float, float]]:
-    if m.kind != "arc":
-        n = max(1, math.ceil(math.hypot(m.x - m.sx, m.y - m.sy) / SPACING))
-        return [(m.sx + (m.x - m.sx) * k / n, m.sy + (m.y - m.sy) * k / n) for k in range(n + 1)]
-    a0 = math.atan2(m.sy - m.cy, m.sx - m.cx)
-    a1 = math.atan2(m.y - m.cy, m.x - m.cx)
-    r = math.hypot(m.sx - m.cx, m.sy - m.cy)
-    sweep = ((a0 - a1) if m.cw else (a1 - a0)) % (2 * math.pi) or 2 * math.pi
-    n = max(8, math.ceil(r * sweep / SPACING))
-    sign = -1 if m.cw else 1
-    return [(m.cx + r * math.cos(a0 + sign * sweep * k / n), m.cy + r * math.sin(a0 + sign * sweep * k / n))
-            for k in range(n + 1)]
+    return gcode_testlib.move_points(m, SPACING)
 
 
 def polyline_points(line: List[Tuple[float, float]]) -> List[Tuple[float, float]]:

@@ -9,12 +9,13 @@ The subset (case-insensitive; one block per physical line):
 - G4 P<seconds> dwell; G17 (XY plane; G18/G19 are rejected); G20/G21 inch/mm;
   G90/G91 absolute/incremental; G92 X/Y sets the current position (an offset;
   Z is accepted and has no effect on the pen); G94 units per minute; G61/G64 (path
-  control) are accepted and have no effect. G4's P unit is the dialect's.
+  control) are accepted and have no effect (notes). G4's P unit is the dialect's.
 - F feed (units per minute, modal; in the units in force after the line's
   G20/G21, and kept as a speed when the units change later); M3 pen down, M5
   pen up, M0 pause, M2/M30 end of program (the rest of the file is not read).
 - Z is the pen: after a Z word the pen is down when Z <= pen_up_z (0 unless
-  set) and up when Z > pen_up_z (Z is absolute in G90 and added to the last Z, 0 at power-on, in G91). A line
+  set) and up when Z > pen_up_z (Z is absolute in G90 and added to the last
+  Z, 0 at power-on, in G91). A line
   with Z and X/Y changes the pen first and then moves; with Z alone it only
   changes the pen. G0 always travels with the pen up; the pen state set by the
   program applies again to the following G1/G2/G3 moves.
@@ -31,7 +32,7 @@ The subset (case-insensitive; one block per physical line):
   M4, M7/M8/M9, G54; Marlin's M300 pen servo, G4 P in milliseconds,
   M17/M18/M84. What a dialect accepts without acting on it is a Note.
 
-Effects of one line happen in LinuxCNC's order: M3/M5, G4, modes (G17,
+Effects of one line happen in LinuxCNC's order: S, M3/M5 (M4, M300), G4, modes (G17,
 G20/G21, G90/G91, ...), G92, motion, then M0/M2/M30. The whole program is
 parsed before anything is returned, so a bad line rejects the whole program
 with a GCodeError naming its physical line. Rejected as well: other letters,
