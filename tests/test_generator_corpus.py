@@ -238,3 +238,15 @@ def test_the_plotter_options_reach_the_streamer(tmp_path):
         assert (config.dialect, config.pen_up_z, config.marlin_pen_down, config.marlin_pen_up) == \
             ("marlin", 2.5, 90.0, 10.0)
         assert graph.streamer.get_parameter("dialect").value == "marlin"
+
+
+@pytest.mark.ros
+@pytest.mark.parametrize("name, dialect, line", [("shapes.svg2gcode-grbl.gcode", "linuxcnc", 5),
+                                                 ("shapes.svg2gcode-marlin.gcode", "grbl", 3),
+                                                 ("shapes.svg2gcode-grbl.gcode", "marlin", 5)])
+def test_stream_in_the_wrong_dialect_moves_nothing(name, dialect, line, tmp_path):
+    trace = tmp_path / "trace.csv"
+    r = plotter("stream", CORPUS / "generated" / name, "--mock", "--trace", trace, "--dialect", dialect,
+                domain=random.SystemRandom().randint(110, 229))
+    assert r.returncode == 2 and f"line {line}: " in r.stderr, r.stderr
+    assert not trace.exists()
