@@ -28,7 +28,7 @@ CORPUS = [
     BadCase("unknown-letter-s", b"G21\nM3 S1000\n", 2, "unsupported word letter 'S'"),
     BadCase("unknown-g-code", b"G21 F100\nG1 X1\nG99.9 X2\n", 3, "unsupported G code G99.9",
             True),
-    BadCase("unsupported-g28", b"G21\nG28\n", 2, "unsupported G code G28"),
+    BadCase("unsupported-g28", b"G21\nG28\n", 2, "G28 (go home) is refused: the plotter has no homing cycle"),
     BadCase("unsupported-g61.1", b"G61.1\nG0 X1\n", 1, "unsupported G code G61.1"),
     BadCase("unknown-m-code", b"G21\nM250\n", 2, "unsupported M code M250", True),
     BadCase("word-without-number-at-end", b"G21 F100\nG1 X\n", 2, "'X' word without a number",

@@ -5,6 +5,7 @@
 - Locates LinuxCNC's acceptance programs in shared/acceptance/linuxcnc.
 - Evaluates LinuxCNC bracket expressions (``[25.00 - [0.0099 * sqrt[2]]]``),
   which are outside the plotter's G-code subset, into plain numbers.
+- Samples parsed moves into points, to compare paths.
 """
 
 from __future__ import annotations
@@ -143,3 +144,20 @@ def check_json(path: Path, *extra: str) -> List[dict]:
         code = cli.main(["check", str(path), "--json", *extra])
     assert code == 0, f"plotter check rejected {path}: {err.getvalue()}"
     return [json.loads(line) for line in out.getvalue().splitlines()]
+
+
+# ------------------------------------------------------- paths as points
+
+def move_points(m, spacing=0.004):
+    """Points along a parsed move, at most `spacing` mm apart."""
+    if m.kind != "arc":
+        n = max(1, math.ceil(math.hypot(m.x - m.sx, m.y - m.sy) / spacing))
+        return [(m.sx + (m.x - m.sx) * k / n, m.sy + (m.y - m.sy) * k / n) for k in range(n + 1)]
+    a0 = math.atan2(m.sy - m.cy, m.sx - m.cx)
+    a1 = math.atan2(m.y - m.cy, m.x - m.cx)
+    r = math.hypot(m.sx - m.cx, m.sy - m.cy)
+    sweep = ((a0 - a1) if m.cw else (a1 - a0)) % (2 * math.pi) or 2 * math.pi
+    n = max(8, math.ceil(r * sweep / spacing))
+    sign = -1 if m.cw else 1
+    return [(m.cx + r * math.cos(a0 + sign * sweep * k / n), m.cy + r * math.sin(a0 + sign * sweep * k / n))
+            for k in range(n + 1)]

@@ -15,7 +15,9 @@ G92 offset it reports; the comparison converts them to machine mm and allows
 
 The pen is compared through this model of the canonical calls: spindle on
 (M3) lowers it, spindle off (M5) raises it, a change of Z sets it (Z <= 0
-down); traverses (G0) travel with the pen up. Every program is run by both
+down, or Z <= pen_up_z); traverses (G0) travel with the pen up. For the grbl
+dialect the spindle's speed is its power: the pen is down while the spindle
+runs at a speed above 0. Every program is run by both
 with the line ``G0 Z1`` in front (PREFIX), so that rs274's Z starts, like the
 plotter's pen, in the up position.
 """
@@ -210,7 +212,8 @@ def rs274() -> Rs274:
 
 # ------------------------------------------------------- canonical calls -> moves
 
-def oracle_moves(calls: List[Tuple[str, List[str]]], rapid_rate: float) -> List[dict]:
+def oracle_moves(calls: List[Tuple[str, List[str]]], rapid_rate: float, *,
+                 power_word: bool = False, pen_up_z: float = 0.0) -> List[dict]:
     """Moves in machine mm, shaped like ``plotter check --json`` records."""
     unit = 1.0
     offset = (0.0, 0.0)
@@ -218,6 +221,7 @@ def oracle_moves(calls: List[Tuple[str, List[str]]], rapid_rate: float) -> List[
     feed = 0.0
     pen = "up"
     z_mm = 0.0
+    spindle_on, speed = False, 0.0
     position: Optional[Tuple[float, float]] = None
     position_quant = 0.0
     moves: List[dict] = []
@@ -229,7 +233,7 @@ def oracle_moves(calls: List[Tuple[str, List[str]]], rapid_rate: float) -> List[
         nonlocal pen, z_mm
         new = float(z) * unit
         if abs(new - z_mm) > 0.002:
-            pen = "down" if float(z) <= 0.0 else "up"
+            pen = "down" if new <= pen_up_z else "up"
         z_mm = new
 
     for name, args in calls:
@@ -242,10 +246,16 @@ def oracle_moves(calls: List[Tuple[str, List[str]]], rapid_rate: float) -> List[
             assert all(float(a) == 0.0 for a in args[1:]), "G54..G59 offsets are unused"
         elif name == "SET_FEED_RATE":
             feed = float(args[0]) * unit
-        elif name == "START_SPINDLE_CLOCKWISE":
-            pen = "down"
+        elif name in ("START_SPINDLE_CLOCKWISE", "START_SPINDLE_COUNTERCLOCKWISE"):
+            spindle_on = True
+            pen = "down" if speed > 0.0 or not power_word else "up"
         elif name == "STOP_SPINDLE_TURNING":
+            spindle_on = False
             pen = "up"
+        elif name == "SET_SPINDLE_SPEED" and power_word:
+            speed = float(args[1])
+            if spindle_on:
+                pen = "down" if speed > 0.0 else "up"
         elif name in ("STRAIGHT_TRAVERSE", "STRAIGHT_FEED"):
             z_change(args[2])
             end = machine(args[0], args[1])
@@ -299,14 +309,17 @@ def with_prefix(text: str) -> str:
     return PREFIX + text
 
 
-def compare(rs274: Rs274, text: str, tmp_path: Path, label: str) -> List[dict]:
+def compare(rs274: Rs274, text: str, tmp_path: Path, label: str, dialect: str = "linuxcnc",
+            pen_up_z: float = 0.0) -> List[dict]:
     """Run both on the program with PREFIX; assert both accept it and agree."""
     path = tmp_path / "program.ngc"
     path.write_text(with_prefix(text))
     result = rs274.run(path)
     assert result.ok, f"{label}: rs274 rejected it: {result.message} ({result.bad_line})"
-    ours = lib.check_json(path, "--no-limits", "--rapid-rate", str(RAPID_RATE))
-    assert_same_moves(ours, oracle_moves(result.calls, RAPID_RATE), label)
+    ours = lib.check_json(path, "--no-limits", "--rapid-rate", str(RAPID_RATE),
+                          "--dialect", dialect, "--pen-up-z", str(pen_up_z))
+    theirs = oracle_moves(result.calls, RAPID_RATE, power_word=dialect == "grbl", pen_up_z=pen_up_z)
+    assert_same_moves(ours, theirs, label)
     return ours
 
 
@@ -384,10 +397,10 @@ def test_bad_programs_rejected_by_both(rs274, path, tmp_path):
     assert keyword in err
 
 
-def run_check(path: Path) -> Tuple[int, str]:
+def run_check(path: Path, *extra: str) -> Tuple[int, str]:
     out, err = io.StringIO(), io.StringIO()
     with contextlib.redirect_stdout(out), contextlib.redirect_stderr(err):
-        code = cli.main(["check", str(path), "--no-limits"])
+        code = cli.main(["check", str(path), "--no-limits", *extra])
     return code, err.getvalue()
 
 
@@ -499,3 +512,70 @@ def test_random_programs_match_oracle(rs274, seed, tmp_path):
         f"plotter check {'accepts' if code == 0 else 'rejects: ' + err}\n{program}")
     if result.ok:
         compare(rs274, program, tmp_path, f"random program {seed}:\n{program}")
+
+
+# ------------------------------------------- the dialects where they are LinuxCNC's
+
+def in_grbl_forms(program: str, rng: random.Random) -> str:
+    """The program with grbl's pen (M3 S<power>, S<power>, M3 S0, S0) and the words
+    grbl and LinuxCNC both take without a move (G54, coolant, path control) on
+    lines of their own; pen changes are added, random_program makes few."""
+    out, running = [], False
+
+    def pen(word: str) -> str:
+        nonlocal running
+        if word == "M3":
+            power = rng.choice([1, 255, 1000, 12.5])
+            line = f"S{power}" if running and rng.random() < 0.5 else f"M3 S{power}"
+            running = True
+            return line
+        line = rng.choice(["M5", "M3 S0"] + (["S0"] if running else []))
+        running = running and line != "M5"
+        return line
+
+    for line in program.splitlines():
+        if line != "M2" and rng.random() < 0.3:
+            out.append(pen(rng.choice(["M3", "M5"])))
+        out.append(pen(line) if line in ("M3", "M5") else line)
+        if rng.random() < 0.1 and line != "M2":
+            out.append(rng.choice(["G54", "M7", "M8", "M9", "G64", "G61"]))
+    return "\n".join(out) + "\n"
+
+
+@pytest.mark.parametrize("seed", range(30))
+@pytest.mark.parametrize("dialect", ["grbl", "marlin"])
+def test_random_programs_match_oracle_in_dialects(rs274, dialect, seed, tmp_path):
+    """grbl's pen and no-op words, and Marlin wherever it reads as LinuxCNC does,
+    with the pen from Z at several thresholds."""
+    program, pen_up_z = dialect_program(dialect, seed)
+    path = tmp_path / "random.ngc"
+    path.write_text(with_prefix(program))
+    result = rs274.run(path)
+    code, err = run_check(path, "--dialect", dialect, "--pen-up-z", str(pen_up_z))
+    assert result.ok == (code == 0), (
+        f"rs274 {'accepts' if result.ok else 'rejects: ' + result.message}, "
+        f"plotter check {'accepts' if code == 0 else 'rejects: ' + err}\n{program}")
+    if result.ok:
+        compare(rs274, program, tmp_path, f"{dialect} program {seed}:\n{program}", dialect, pen_up_z)
+
+
+def dialect_program(dialect: str, seed: int) -> Tuple[str, float]:
+    rng = random.Random(1000 + seed)
+    program = random_program(rng)
+    if dialect == "grbl":
+        program = in_grbl_forms(program, rng)
+    return program, [0.0, 0.5, -0.75, 1.5][seed % 4]
+
+
+@pytest.mark.parametrize("dialect", ["grbl", "marlin"])
+def test_dialect_sweep_draws_and_lifts(dialect):
+    """The programs above are no empty test: many draw, and the grbl ones use every pen form."""
+    from plotter_bridge.gcode.dialect import GCodeOptions
+    from plotter_bridge.gcode.parser import moves_of, parse
+    texts = [dialect_program(dialect, seed) for seed in range(30)]
+    drawing = sum(any(m.pen == "down" and not m.rapid for m in moves_of(
+        parse(PREFIX + text, options=GCodeOptions(dialect, pen_up_z)))) for text, pen_up_z in texts)
+    assert drawing >= 10
+    if dialect == "grbl":
+        lines = {line.split(" S")[0].split("S")[0] or "S" for text, _ in texts for line in text.splitlines()}
+        assert {"M3", "M5", "S", "G54", "M8", "M9"} <= lines

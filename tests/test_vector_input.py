@@ -3,6 +3,7 @@ import math
 
 import pytest
 
+from gcode_testlib import move_points
 from plotter_bridge.gcode.parser import moves_of, parse
 from plotter_shapes.svg_input import Placement, VectorError, svg_program
 from plotter_shapes.text_input import text_program
@@ -41,21 +42,6 @@ def reference_points(width=100.0, n=400):
             for k in range(n + 1)]
     pts += [to_plotter(30, 22 + 10 * k / n, width) for k in range(n + 1)]
     return pts
-
-
-def move_points(m, spacing=0.004):
-    """Points along a parsed move, at most `spacing` mm apart."""
-    if m.kind != "arc":
-        n = max(1, math.ceil(math.hypot(m.x - m.sx, m.y - m.sy) / spacing))
-        return [(m.sx + (m.x - m.sx) * k / n, m.sy + (m.y - m.sy) * k / n) for k in range(n + 1)]
-    a0 = math.atan2(m.sy - m.cy, m.sx - m.cx)
-    a1 = math.atan2(m.y - m.cy, m.x - m.cx)
-    r = math.hypot(m.sx - m.cx, m.sy - m.cy)
-    sweep = ((a0 - a1) if m.cw else (a1 - a0)) % (2 * math.pi) or 2 * math.pi
-    n = max(8, math.ceil(r * sweep / spacing))
-    sign = -1 if m.cw else 1
-    return [(m.cx + r * math.cos(a0 + sign * sweep * k / n), m.cy + r * math.sin(a0 + sign * sweep * k / n))
-            for k in range(n + 1)]
 
 
 def near(points, targets, tol):

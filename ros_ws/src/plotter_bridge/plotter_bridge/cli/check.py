@@ -1,6 +1,8 @@
 """``plotter check FILE``: validates a G-code program without moving anything
 and prints the moves it would make, like grbl's check mode (``--z-axis``:
-G-code Z as a third axis, see gcode/parser.py).  No ROS.
+G-code Z as a third axis, see gcode/parser.py; ``--dialect``: see
+gcode/dialect.py).  Lines the dialect accepts without acting on them are
+listed on stderr as notes, ``FILE:line N: note: ...``.  No ROS.
 """
 from __future__ import annotations
 
@@ -10,14 +12,38 @@ import math
 import sys
 from typing import List, TextIO
 
+from plotter_bridge.gcode.dialect import (DEFAULT_MARLIN_PEN_DOWN, DEFAULT_MARLIN_PEN_UP, DEFAULT_PEN_UP_Z,
+                                          DIALECTS, LINUXCNC, GCodeOptions)
 from plotter_bridge.gcode.geometry import arc_length
 from plotter_bridge.gcode.limits import WorkArea, check_limits
-from plotter_bridge.gcode.parser import DEFAULT_RAPID_RATE, GCodeError, Item, Move, load_program
+from plotter_bridge.gcode.parser import (DEFAULT_RAPID_RATE, GCodeError, Item, Move, decode_program,
+                                         parse_program)
 from plotter_bridge.gcode.steps import round_step, to_steps
 from plotter_bridge.gcode.types import Dwell, Pause, PenChange, ZMove
 from plotter_bridge.motion.kinematics import DEFAULT_Z_STEPS_PER_MM
 
 from .command import EXIT_BAD_PROGRAM, EXIT_OK, Command
+
+
+def dialect_args(p: argparse.ArgumentParser) -> None:
+    """The options that say how a program is read: its dialect and pen rules."""
+    p.add_argument("--dialect", choices=tuple(DIALECTS), default=None,
+                   help="G-code dialect (default linuxcnc; for a running plotter, its streamer's): grbl takes "
+                        "M3 S<power> for the pen, "
+                        "marlin M300 S<angle> and G4 P in milliseconds")
+    p.add_argument("--pen-up-z", type=float, default=DEFAULT_PEN_UP_Z, metavar="MM",
+                   help=f"Z above this lifts the pen, at or below lowers it (default {DEFAULT_PEN_UP_Z:g})")
+    p.add_argument("--marlin-pen", type=float, nargs=2, default=(DEFAULT_MARLIN_PEN_DOWN, DEFAULT_MARLIN_PEN_UP),
+                   metavar=("DOWN", "UP"),
+                   help=f"with --dialect marlin: the M300 S angles that lower and lift the pen "
+                        f"(default {DEFAULT_MARLIN_PEN_DOWN:g} {DEFAULT_MARLIN_PEN_UP:g})")
+
+
+def gcode_options(args: argparse.Namespace) -> GCodeOptions:
+    """GCodeOptions from dialect_args' options; ValueError for bad ones."""
+    down, up = getattr(args, "marlin_pen", (DEFAULT_MARLIN_PEN_DOWN, DEFAULT_MARLIN_PEN_UP))
+    return GCodeOptions(getattr(args, "dialect", None) or LINUXCNC, getattr(args, "pen_up_z", DEFAULT_PEN_UP_Z),
+                        down, up)
 
 
 def _configure_check(p: argparse.ArgumentParser) -> None:
@@ -40,6 +66,7 @@ def _configure_check(p: argparse.ArgumentParser) -> None:
                        help=f"work area limit (default {getattr(defaults, name):g})")
     p.add_argument("--no-limits", action="store_true",
                    help="do not check the moves against the work area")
+    dialect_args(p)
 
 
 def _number(value: float) -> float:
@@ -105,7 +132,7 @@ def _print_table(items: List[Item], steps_per_mm: float, out: TextIO,
             out.write(f"{item.line:>5} {'':>5}  pause (M0)\n")
 
 
-def _summary(path: str, items: List[Item]) -> str:
+def _summary(path: str, items: List[Item], notes: int = 0) -> str:
     moves = [i for i in items if isinstance(i, Move)]
     drawn = sum(_length(m) for m in moves if m.pen == "down" and not m.rapid)
     travel = sum(_length(m) for m in moves if m.pen == "up" or m.rapid)
@@ -121,7 +148,8 @@ def _summary(path: str, items: List[Item]) -> str:
             + (f", {len(z_moves)} Z moves" if z_moves else "") + f"); drawn {drawn:.1f} mm, "
             f"travel {travel:.1f} mm, about {seconds:.0f} s at the programmed feeds; "
             f"end points within X {min(xs):.2f}..{max(xs):.2f}, "
-            f"Y {min(ys):.2f}..{max(ys):.2f} mm")
+            f"Y {min(ys):.2f}..{max(ys):.2f} mm"
+            + (f"; {notes} note{'s' if notes != 1 else ''}: lines accepted without effect" if notes else ""))
 
 
 def run_check(args: argparse.Namespace, out: TextIO = None, err: TextIO = None) -> int:
@@ -143,13 +171,22 @@ def run_check(args: argparse.Namespace, out: TextIO = None, err: TextIO = None) 
         err.write("--z-steps-per-mm must be a positive number\n")
         return EXIT_BAD_PROGRAM
     try:
-        items = load_program(data, rapid_rate=args.rapid_rate, z_axis=args.z_axis)
+        options = gcode_options(args)
+    except ValueError as exc:
+        err.write(f"{exc}\n")
+        return EXIT_BAD_PROGRAM
+    try:
+        program = parse_program(decode_program(data), rapid_rate=args.rapid_rate, z_axis=args.z_axis,
+                                options=options)
+        items = program.items
         if not args.no_limits:
             check_limits(items, WorkArea(args.x_min, args.x_max, args.y_min, args.y_max,
                                          args.z_min, args.z_max))
     except GCodeError as exc:
         err.write(f"{args.file}:{exc}\n")
         return EXIT_BAD_PROGRAM
+    for note in program.notes:
+        err.write(f"{args.file}:{note}\n")
     if args.json:
         for item in items:
             if isinstance(item, Move):
@@ -158,7 +195,7 @@ def run_check(args: argparse.Namespace, out: TextIO = None, err: TextIO = None) 
                 out.write(json.dumps(z_record(item)) + "\n")
         return EXIT_OK
     _print_table(items, args.steps_per_mm, out, args.z_steps_per_mm)
-    out.write(_summary(args.file, items) + "\n")
+    out.write(_summary(args.file, items, len(program.notes)) + "\n")
     return EXIT_OK
 
 

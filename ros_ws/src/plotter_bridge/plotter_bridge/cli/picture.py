@@ -86,12 +86,14 @@ def figure_polylines(figure) -> List[Polyline]:
     return out
 
 
-def program_polylines(text: str, start: Point = (0.0, 0.0)) -> List[Polyline]:
-    """The pen-down moves of a G-code program, as continuous polylines (mm)."""
+def program_polylines(text: str, start: Point = (0.0, 0.0), options=None) -> List[Polyline]:
+    """The pen-down moves of a G-code program, as continuous polylines (mm);
+    `options` is its dialect (gcode.dialect.GCodeOptions, default linuxcnc)."""
+    from plotter_bridge.gcode.dialect import GCodeOptions
     from plotter_bridge.gcode.parser import parse, moves_of
     out: List[Polyline] = []
     end: Optional[Point] = None
-    for m in moves_of(parse(text, start=start)):
+    for m in moves_of(parse(text, start=start, options=options or GCodeOptions())):
         if m.rapid or m.pen != "down":
             end = None
             continue

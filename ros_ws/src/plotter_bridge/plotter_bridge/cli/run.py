@@ -22,12 +22,15 @@ import time
 from pathlib import Path
 from typing import List, TextIO
 
+from plotter_bridge.gcode.dialect import DEFAULT_MARLIN_PEN_DOWN, DEFAULT_MARLIN_PEN_UP, DEFAULT_PEN_UP_Z
 from plotter_bridge.gcode.types import GCodeError
 from plotter_bridge.motion.kinematics import DEFAULT_Z_STEPS_PER_MM
 
+from .check import dialect_args, gcode_options
 from .command import EXIT_BAD_PROGRAM, EXIT_FAILED, EXIT_OK, Command
 from .progress import ProgressDisplay
 
+DEFAULT_MARLIN_PEN = (DEFAULT_MARLIN_PEN_DOWN, DEFAULT_MARLIN_PEN_UP)
 HANGING_AREA = (0.0, 800.0, 0.0, 1000.0)   # seed 003's board below its pulleys, mm
 
 
@@ -91,7 +94,7 @@ def _graph_options(args: argparse.Namespace):
         raise ValueError("--z-steps-per-mm must be a positive number")
     if args.z_range and not args.z_range[0] < args.z_range[1]:
         raise ValueError("--z-range: Z_MIN must be below Z_MAX")
-    return GraphOptions(port=args.port or "", mock=args.mock, baud=args.baud or 115200,
+    return GraphOptions(gcode=gcode_options(args), port=args.port or "", mock=args.mock, baud=args.baud or 115200,
                         steps_per_mm=args.steps_per_mm or 80.0, trace=args.trace,
                         namespace=args.namespace, faults=faults, seq_log=args.seq_log,
                         journal_dir=args.journal, machine=args.machine,
@@ -141,7 +144,7 @@ def write_pictures(args: argparse.Namespace, text: str, name: str, start: tuple,
                    trace_path: str, samples: List[tuple], err: TextIO) -> None:
     """--svg/--png: what was drawn (the mock's step trace, else reported positions) over the program."""
     from .picture import program_polylines, runs_by_pen, runs_near_path, write_picture
-    programmed = program_polylines(text, start) if text else []
+    programmed = program_polylines(text, start, gcode_options(args)) if text else []
     if trace_path:
         from plotter_bridge.sim.trace import read_trace
         spm = args.steps_per_mm or 80.0
@@ -156,14 +159,17 @@ def write_pictures(args: argparse.Namespace, text: str, name: str, start: tuple,
 
 def run_program_text(text: str, name: str, args: argparse.Namespace,
                      out: TextIO = sys.stdout, err: TextIO = sys.stderr) -> int:
-    from plotter_bridge.gcode.parser import parse
+    from plotter_bridge.gcode.parser import parse_program
     resume_id = getattr(args, "resume_id", "")
     try:
-        if not resume_id:
-            # Syntax first; the work area is checked from the pen's real position.
-            parse(text, z_axis=getattr(args, "z_axis", False))
-    except GCodeError as exc:
-        err.write(f"{name}:{exc}\n")
+        # Syntax first (the work area is checked from the pen's real position); a running
+        # plotter's streamer reads in its own dialect unless the command names one.
+        if not resume_id and (args.port or args.mock or getattr(args, "dialect", None)):
+            program = parse_program(text, z_axis=getattr(args, "z_axis", False), options=gcode_options(args))
+            for note in program.notes:
+                err.write(f"{name}:{note}\n")
+    except ValueError as exc:  # GCodeError, or bad dialect options
+        err.write(f"{name}:{exc}\n" if isinstance(exc, GCodeError) else f"{exc}\n")
         return EXIT_BAD_PROGRAM
     svg_out, png_out = getattr(args, "svg", ""), getattr(args, "png", "")
     if (png_out and Path(png_out).suffix.lower() != ".png") or \
@@ -172,7 +178,7 @@ def run_program_text(text: str, name: str, args: argparse.Namespace,
         return EXIT_BAD_PROGRAM
     if not (args.port or args.mock):
         from plotter_interfaces.action import RunProgram
-        goal = RunProgram.Goal(program=text, name=name, resume=resume_id)
+        goal = RunProgram.Goal(program=text, name=name, resume=resume_id, dialect=getattr(args, "dialect", None) or "")
         return run_goal_on_graph(args, name, RunProgram, "run_program", goal, "" if resume_id else text, out, err)
     from dataclasses import replace
     from plotter_bridge.nodes.local_graph import LocalGraph
@@ -223,6 +229,10 @@ def client_refusal(args: argparse.Namespace) -> str:
     given = [name for name in LOCAL_ONLY if getattr(args, name, None) not in (None, False, "")]
     if getattr(args, "machine", "cartesian") != "cartesian":
         given.append("machine")
+    if getattr(args, "pen_up_z", DEFAULT_PEN_UP_Z) != DEFAULT_PEN_UP_Z:
+        given.append("pen_up_z")
+    if tuple(getattr(args, "marlin_pen", DEFAULT_MARLIN_PEN)) != DEFAULT_MARLIN_PEN:
+        given.append("marlin_pen")
     if not given:
         return ""
     return (f"{', '.join('--' + g.replace('_', '-') for g in given)}: only with --port or --mock "
@@ -275,6 +285,7 @@ def run_goal_on_graph(args: argparse.Namespace, name: str, action_type, action: 
 
 def _configure_stream(p: argparse.ArgumentParser) -> None:
     p.add_argument("file", metavar="FILE.gcode", help="G-code program to draw")
+    dialect_args(p)
     connection_args(p)
 
 

@@ -9,12 +9,13 @@ The subset (case-insensitive; one block per physical line):
 - G4 P<seconds> dwell; G17 (XY plane; G18/G19 are rejected); G20/G21 inch/mm;
   G90/G91 absolute/incremental; G92 X/Y sets the current position (an offset;
   Z is accepted and has no effect on the pen); G94 units per minute; G61/G64 (path
-  control) are accepted and have no effect.
+  control) are accepted and have no effect (notes). G4's P unit is the dialect's.
 - F feed (units per minute, modal; in the units in force after the line's
   G20/G21, and kept as a speed when the units change later); M3 pen down, M5
   pen up, M0 pause, M2/M30 end of program (the rest of the file is not read).
-- Z is the pen: after a Z word the pen is down when Z <= 0 and up when Z > 0
-  (Z is absolute in G90 and added to the last Z, 0 at power-on, in G91). A line
+- Z is the pen: after a Z word the pen is down when Z <= pen_up_z (0 unless
+  set) and up when Z > pen_up_z (Z is absolute in G90 and added to the last
+  Z, 0 at power-on, in G91). A line
   with Z and X/Y changes the pen first and then moves; with Z alone it only
   changes the pen. G0 always travels with the pen up; the pen state set by the
   program applies again to the following G1/G2/G3 moves.
@@ -27,8 +28,11 @@ The subset (case-insensitive; one block per physical line):
   interpolated together; Z never moves with them, so an arc that changes Z
   (a helix) is refused. M3/M5 and G0's pen-up still drive the pen output.
 - N words, comments in parentheses and after ';', '%' lines, blank lines.
+- Dialects (gcode/dialect.py, ``options``): grbl's S power word and
+  M4, M7/M8/M9, G54; Marlin's M300 pen servo, G4 P in milliseconds,
+  M17/M18/M84. What a dialect accepts without acting on it is a Note.
 
-Effects of one line happen in LinuxCNC's order: M3/M5, G4, modes (G17,
+Effects of one line happen in LinuxCNC's order: S, M3/M5 (M4, M300), G4, modes (G17,
 G20/G21, G90/G91, ...), G92, motion, then M0/M2/M30. The whole program is
 parsed before anything is returned, so a bad line rejects the whole program
 with a GCodeError naming its physical line. Rejected as well: other letters,
@@ -46,14 +50,15 @@ from dataclasses import dataclass, field
 from typing import Tuple, Dict, List, Optional
 
 from . import geometry
-from .types import (PEN_DOWN, PEN_UP, Dwell, GCodeError, Item, Move, Pause,
+from .dialect import GCodeOptions, dialect_hint, system_command_reason
+from .types import (PEN_DOWN, PEN_UP, Dwell, GCodeError, Item, Move, Note, Pause,
                     PenChange, ZMove)
 from .limits import WorkArea, check_limits
 from .steps import StepMove, to_steps
 
-__all__ = ["GCodeError", "Move", "ZMove", "Dwell", "PenChange", "Pause", "Item", "WorkArea",
-           "StepMove", "check_limits", "to_steps", "parse", "decode_program",
-           "load_program", "moves_of", "DEFAULT_RAPID_RATE"]
+__all__ = ["GCodeError", "Move", "ZMove", "Dwell", "PenChange", "Pause", "Note", "Item", "WorkArea",
+           "StepMove", "GCodeOptions", "Program", "check_limits", "to_steps", "parse", "parse_program",
+           "decode_program", "load_program", "moves_of", "DEFAULT_RAPID_RATE"]
 
 MAX_LINE_LENGTH = 256
 MAX_ABS_VALUE = 1e6
@@ -62,7 +67,7 @@ MM_PER_INCH = geometry.MM_PER_INCH
 SAME_POINT_MM = 1e-9
 
 _NUMBER = re.compile(r"[+-]?(?:\d+\.?\d*|\.\d+)")
-_LETTERS = frozenset("GMXYZIJRFPN")
+_LETTERS = frozenset("GMXYZIJRFPN")   # every dialect's; gcode/dialect.py adds others
 _AXES = ("X", "Y", "Z")
 
 # G codes in tenths (G61 -> 610), with their modal group.
@@ -73,6 +78,7 @@ _G_GROUPS = {0: _MOTION, 10: _MOTION, 20: _MOTION, 30: _MOTION, 40: _NONMODAL,
              910: _DISTANCE, 940: _FEED_MODE, 200: _UNITS, 210: _UNITS, 610: _PATH,
              640: _PATH}
 _M_CODES = frozenset((0, 2, 3, 5, 30))
+_COORDINATE_SYSTEM = "coordinate system"
 
 
 @dataclass(frozen=True)
@@ -97,7 +103,19 @@ class _State:
     motion: Optional[int] = None
     feed: float = 0.0
     pen: str = PEN_UP
+    options: GCodeOptions = GCodeOptions()
+    spindle_on: bool = False     # grbl: M3/M4 in force (the pen follows the power)
+    power: Optional[float] = None  # grbl: the last S word, None before the first
     items: List[Item] = field(default_factory=list)
+    notes: List[Note] = field(default_factory=list)
+
+
+@dataclass(frozen=True)
+class Program:
+    """A parsed program: what it does, and what it says that has no effect here."""
+
+    items: List[Item]
+    notes: List[Note]
 
 
 def _g_name(code: int) -> str:
@@ -114,7 +132,7 @@ def _bad_character(ch: str) -> str:
     return _HINTS.get(ch, f"unexpected character {ch!r}")
 
 
-def tokenize_line(text: str, line: int) -> List[Word]:
+def tokenize_line(text: str, line: int, options: GCodeOptions = GCodeOptions()) -> List[Word]:
     """The words of one physical line; comments and blanks are dropped."""
     if len(text) > MAX_LINE_LENGTH:
         raise GCodeError(line, f"line too long ({len(text)} characters, "
@@ -125,6 +143,9 @@ def tokenize_line(text: str, line: int) -> List[Word]:
                                    f"(only printable ASCII is allowed)")
     if text.strip() == "%":
         return []
+    if text.lstrip().startswith("$"):
+        raise GCodeError(line, system_command_reason(text))
+    letters = _LETTERS | options.rules.letters
     words: List[Word] = []
     i = 0
     while i < len(text):
@@ -144,8 +165,9 @@ def tokenize_line(text: str, line: int) -> List[Word]:
             raise GCodeError(line, "')' without a comment to close")
         elif ch.isalpha():
             letter = ch.upper()
-            if letter not in _LETTERS:
-                raise GCodeError(line, f"unsupported word letter '{letter}'")
+            if letter not in letters:
+                raise GCodeError(line, f"unsupported word letter '{letter}'"
+                                       + dialect_hint(letter, options.dialect))
             j = i + 1
             while j < len(text) and text[j] in " \t":
                 j += 1
@@ -169,8 +191,10 @@ def tokenize_line(text: str, line: int) -> List[Word]:
     return words
 
 
-def _split_words(words: List[Word], line: int):
-    """(G codes by modal group, M code or None, other words by letter, N)."""
+def _split_words(words: List[Word], line: int, st: _State):
+    """(G codes by modal group, M code or None, other words by letter, N);
+    the words the dialect accepts without effect become notes."""
+    rules = st.options.rules
     groups: Dict[str, int] = {}
     others: Dict[str, float] = {}
     n: Optional[int] = None
@@ -183,12 +207,17 @@ def _split_words(words: List[Word], line: int):
             n = int(w.value)
         elif w.letter == "G":
             code = round(w.value * 10)
-            if abs(w.value * 10 - code) > 1e-6 or code not in _G_GROUPS:
+            exact = abs(w.value * 10 - code) <= 1e-6
+            if exact and code in rules.refused_g:
+                raise GCodeError(line, rules.refused_g[code])
+            group = _G_GROUPS.get(code) or (_COORDINATE_SYSTEM if code in rules.noted_g else None)
+            if not exact or group is None:
                 raise GCodeError(line, f"unsupported G code G{w.value:g}")
             if code in (180, 190):
                 raise GCodeError(line, f"{_g_name(code)}: only the XY plane (G17) "
                                        f"is supported")
-            group = _G_GROUPS[code]
+            if code in rules.noted_g:
+                st.notes.append(Note(line, rules.noted_g[code]))
             if group in groups:
                 what = ("two motion words" if group == _MOTION
                         else f"two G codes of the {group} group")
@@ -202,9 +231,13 @@ def _split_words(words: List[Word], line: int):
     m_code: Optional[int] = None
     if "M" in others:
         value = others.pop("M")
-        if value != int(value) or int(value) not in _M_CODES:
+        code = int(value) if value == int(value) else None
+        if code in rules.noted_m:
+            st.notes.append(Note(line, rules.noted_m[code]))
+        elif code in _M_CODES or code in rules.m_codes:
+            m_code = code
+        else:
             raise GCodeError(line, f"unsupported M code M{value:g}")
-        m_code = int(value)
     return groups, m_code, others, n
 
 
@@ -269,7 +302,7 @@ def _motion(st: _State, words: Dict[str, float], line: int, n: Optional[int],
             st.z = tz
     elif "Z" in words:
         st.z = words["Z"] * u if st.absolute else st.z + words["Z"] * u
-        new_pen = PEN_DOWN if st.z <= 0.0 else PEN_UP
+        new_pen = PEN_DOWN if st.z <= st.options.pen_up_z else PEN_UP
     # As the pen: a rapid goes down at its end, anything else changes Z first.
     z_after = z_move is not None and code == 0 and z_move.z < z_move.sz
     if z_move is not None and not z_after:
@@ -294,26 +327,68 @@ def _motion(st: _State, words: Dict[str, float], line: int, n: Optional[int],
         st.items.append(z_move)
 
 
+def _pen_words(st: _State, m_code: Optional[int], o: Dict[str, float], nonmodal: Optional[int],
+               line: int) -> None:
+    """The pen from this line's M code and, in grbl and marlin, its S word."""
+    rules, options = st.options.rules, st.options
+    if rules.power_word:
+        if "S" in o:
+            if o["S"] < 0:
+                raise GCodeError(line, f"negative S word (power) S{o['S']:g}")
+            st.power = o["S"]
+        if m_code in (3, 4, 5):
+            st.spindle_on = m_code != 5
+        if m_code in (3, 4, 5) or ("S" in o and st.spindle_on):
+            # A power never set counts as on: "M3" alone draws, as in LinuxCNC.
+            on = st.spindle_on and (st.power is None or st.power > 0.0)
+            _set_pen(st, PEN_DOWN if on else PEN_UP, line)
+        return
+    if rules.servo_pen and "S" in o and m_code != 300 and nonmodal != 40:
+        raise GCodeError(line, "S word without M300 (pen servo) or G4 (dwell) to use it")
+    if m_code == 300:
+        if "S" not in o:
+            raise GCodeError(line, "M300 (pen servo) needs an S word: the servo angle")
+        pen = options.servo_pen(o["S"])
+        if pen is None:
+            raise GCodeError(line, f"M300 S{o['S']:g}: neither the pen-down angle "
+                                   f"{options.marlin_pen_down:g} nor the pen-up angle "
+                                   f"{options.marlin_pen_up:g} (marlin_pen_down, marlin_pen_up)")
+        _set_pen(st, pen, line)
+    elif m_code == 3:
+        _set_pen(st, PEN_DOWN, line)
+    elif m_code == 5:
+        _set_pen(st, PEN_UP, line)
+
+
+def _dwell(st: _State, o: Dict[str, float], line: int) -> Dwell:
+    rules = st.options.rules
+    unit = "seconds" if rules.dwell_p_seconds == 1.0 else "milliseconds"
+    if rules.servo_pen and "S" in o:
+        if "P" in o:
+            raise GCodeError(line, "G4 dwell with both P (milliseconds) and S (seconds)")
+        seconds = o["S"]
+    elif "P" not in o:
+        raise GCodeError(line, f"G4 dwell needs a P word ({unit})")
+    else:
+        seconds = o["P"] * rules.dwell_p_seconds
+    if seconds < 0:
+        raise GCodeError(line, "G4 dwell with a negative time")
+    return Dwell(line, seconds)
+
+
 def _execute(st: _State, words: List[Word], line: int, rapid_rate: float) -> bool:
     """Apply one line to the state; True when it ends the program."""
-    groups, m_code, o, n = _split_words(words, line)
+    groups, m_code, o, n = _split_words(words, line, st)
     u = st.mm_per_unit
     if "F" in o:
         if o["F"] < 0:
             raise GCodeError(line, "negative feed rate")
-    if m_code == 3:
-        _set_pen(st, PEN_DOWN, line)
-    elif m_code == 5:
-        _set_pen(st, PEN_UP, line)
     nonmodal = groups.get(_NONMODAL)
+    _pen_words(st, m_code, o, nonmodal, line)
     if "P" in o and nonmodal != 40 and groups.get(_PATH) != 640:
         raise GCodeError(line, "P word without G4 (dwell) to use it")
     if nonmodal == 40:
-        if "P" not in o:
-            raise GCodeError(line, "G4 dwell needs a P word (seconds)")
-        if o["P"] < 0:
-            raise GCodeError(line, "G4 dwell with a negative time")
-        st.items.append(Dwell(line, o["P"]))
+        st.items.append(_dwell(st, o, line))
     if _UNITS in groups:
         u = st.mm_per_unit = MM_PER_INCH if groups[_UNITS] == 200 else 1.0
     if "F" in o:
@@ -337,6 +412,8 @@ def _execute(st: _State, words: List[Word], line: int, rapid_rate: float) -> boo
             st.offset_y = st.y - o["Y"] * u
         if "Z" in o and st.z_axis:
             st.offset_z = st.z - o["Z"] * u
+        elif "Z" in o:
+            st.notes.append(Note(line, "G92 Z: no effect, Z is the pen here"))
     else:
         if motion_word is not None:
             st.motion = motion_word
@@ -357,21 +434,23 @@ def _execute(st: _State, words: List[Word], line: int, rapid_rate: float) -> boo
     return m_code in (2, 30)
 
 
-def parse(text: str, rapid_rate: float = DEFAULT_RAPID_RATE,
-          start: Tuple[float, float] = (0.0, 0.0), *, z_axis: bool = False,
-          start_z: float = 0.0) -> List[Item]:
+def parse_program(text: str, rapid_rate: float = DEFAULT_RAPID_RATE,
+                  start: Tuple[float, float] = (0.0, 0.0), *, z_axis: bool = False,
+                  start_z: float = 0.0, options: GCodeOptions = GCodeOptions()) -> Program:
     """Parse a whole program; raise GCodeError for the first bad line.
 
-    Returns the moves, dwells, pen changes and pauses in order, in machine
-    coordinates (mm, mm/min) from the power-on origin, starting at `start`
-    (where the pen is when the program begins) with the pen up. With
+    The items are the moves, dwells, pen changes and pauses in order, in
+    machine coordinates (mm, mm/min) from the power-on origin, starting at
+    `start` (where the pen is when the program begins) with the pen up. With
     `z_axis`, Z words are moves of a third axis (ZMove items) that is at
     `start_z` (mm) when the program begins; otherwise they move the pen.
+    `options` is the dialect and its pen rules; the notes are the lines it
+    accepts without acting on them.
     """
     if not (math.isfinite(rapid_rate) and rapid_rate > 0.0):
         raise ValueError(f"rapid rate must be positive, not {rapid_rate!r}")
     st = _State(x=float(start[0]), y=float(start[1]), z_axis=z_axis,
-                z=float(start_z) if z_axis else 0.0)
+                z=float(start_z) if z_axis else 0.0, options=options)
     lines = text.split("\n")
     if lines and lines[-1] == "":
         lines.pop()
@@ -380,7 +459,7 @@ def parse(text: str, rapid_rate: float = DEFAULT_RAPID_RATE,
     for number, raw in enumerate(lines, start=1):
         if raw.endswith("\r"):
             raw = raw[:-1]
-        words = tokenize_line(raw, number)
+        words = tokenize_line(raw, number, options)
         blank = blank and not words
         if words and _execute(st, words, number, rapid_rate):
             last_line = number
@@ -388,7 +467,14 @@ def parse(text: str, rapid_rate: float = DEFAULT_RAPID_RATE,
     if not any(isinstance(item, (Move, ZMove)) for item in st.items):
         raise GCodeError(last_line, "empty program: no G-code words"
                          if blank else "program makes no moves")
-    return st.items
+    return Program(st.items, st.notes)
+
+
+def parse(text: str, rapid_rate: float = DEFAULT_RAPID_RATE,
+          start: Tuple[float, float] = (0.0, 0.0), *, z_axis: bool = False,
+          start_z: float = 0.0, options: GCodeOptions = GCodeOptions()) -> List[Item]:
+    """The items of parse_program."""
+    return parse_program(text, rapid_rate, start, z_axis=z_axis, start_z=start_z, options=options).items
 
 
 def decode_program(data: bytes) -> str:
@@ -403,9 +489,10 @@ def decode_program(data: bytes) -> str:
 
 def load_program(data: bytes, rapid_rate: float = DEFAULT_RAPID_RATE,
                  start: Tuple[float, float] = (0.0, 0.0), *, z_axis: bool = False,
-                 start_z: float = 0.0) -> List[Item]:
+                 start_z: float = 0.0, options: GCodeOptions = GCodeOptions()) -> List[Item]:
     """decode_program then parse."""
-    return parse(decode_program(data), rapid_rate, start, z_axis=z_axis, start_z=start_z)
+    return parse(decode_program(data), rapid_rate, start, z_axis=z_axis, start_z=start_z,
+                 options=options)
 
 
 def moves_of(items: List[Item]) -> List[Move]:

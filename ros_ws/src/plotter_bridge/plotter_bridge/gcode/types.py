@@ -94,4 +94,16 @@ class Pause:
     line: int
 
 
+@dataclass(frozen=True)
+class Note:
+    """A line the dialect accepts without acting on it (M8 coolant, G54 the
+    only coordinate system, ...): ``plotter check`` lists these."""
+
+    line: int
+    text: str
+
+    def __str__(self) -> str:
+        return f"line {self.line}: note: {self.text}"
+
+
 Item = Union[Move, ZMove, Dwell, PenChange, Pause]

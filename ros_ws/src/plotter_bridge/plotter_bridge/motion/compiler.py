@@ -9,6 +9,8 @@ from dataclasses import dataclass
 from typing import List, Tuple
 
 from .commands import FIRMWARE_ACCEL, BoardCommand, cartesian_motion, to_commands, z_axis_motion
+from plotter_bridge.gcode.dialect import (DEFAULT_MARLIN_PEN_DOWN, DEFAULT_MARLIN_PEN_UP, DEFAULT_PEN_UP_Z,
+                                          LINUXCNC, GCodeOptions)
 from plotter_bridge.gcode.parser import load_program
 from plotter_bridge.gcode.limits import WorkArea, check_limits
 from plotter_bridge.gcode.steps import to_steps
@@ -34,9 +36,17 @@ class StreamerConfig:
     link_seq: int = -1                 # link_baud: the first command's sequence number on the wire (-1: unknown)
     z_mode: str = "pen"                # G-code Z: the pen, or "axis": a third axis (firmware ZAXIS=1)
     z_steps_per_mm: float = DEFAULT_Z_STEPS_PER_MM   # z_mode axis: steps per mm of Z
+    dialect: str = LINUXCNC            # G-code dialect: linuxcnc, grbl or marlin (gcode/dialect.py)
+    pen_up_z: float = DEFAULT_PEN_UP_Z                # z_mode pen: Z above this lifts the pen
+    marlin_pen_down: float = DEFAULT_MARLIN_PEN_DOWN  # marlin: M300 S<angle> that lowers the pen
+    marlin_pen_up: float = DEFAULT_MARLIN_PEN_UP      # marlin: M300 S<angle> that lifts it
 
     def __post_init__(self) -> None:
         check_z(self.z_mode, self.z_steps_per_mm)
+        self.gcode_options()  # a bad dialect or angle is refused when the node starts
+
+    def gcode_options(self) -> GCodeOptions:
+        return GCodeOptions(self.dialect, self.pen_up_z, self.marlin_pen_down, self.marlin_pen_up)
 
     def motor_steps_per_mm(self) -> float:
         return self.hanging.steps_per_mm if self.machine == "hanging" else self.steps_per_mm
@@ -60,7 +70,7 @@ def compile_program(text: str, config: StreamerConfig,
         start = (start_steps[0] / config.steps_per_mm, start_steps[1] / config.steps_per_mm)
     z_axis = config.z_mode == "axis"
     items = load_program(data, rapid_rate=config.rapid_feed, start=start, z_axis=z_axis,
-                         start_z=start_z_steps / config.z_steps_per_mm)
+                         start_z=start_z_steps / config.z_steps_per_mm, options=config.gcode_options())
     check_limits(items, config.area)
     z_motion = z_axis_motion(config.z_steps_per_mm) if z_axis else None
     if config.machine == "hanging":

@@ -54,6 +54,8 @@ from plotter_interfaces.action import RunProgram, StreamCommands
 from plotter_interfaces.msg import BoardState
 from plotter_interfaces.srv import JobStatus
 
+from plotter_bridge.gcode.dialect import (DEFAULT_MARLIN_PEN_DOWN, DEFAULT_MARLIN_PEN_UP, DEFAULT_PEN_UP_Z,
+                                          DIALECTS, LINUXCNC)
 from plotter_bridge.gcode.limits import WorkArea
 from plotter_bridge.gcode.parser import program_name
 from plotter_bridge.gcode.types import GCodeError
@@ -112,6 +114,14 @@ SPECS = (
                                "this baud rate (-1: serial_bridge's, 0: off)", "baud", low=-1, high=1_000_000),
     ParamSpec("tolerance", 0.1, "hanging machine: largest pen deviation from the programmed path", "mm",
               low=0.0, above=True, high=10.0),
+    ParamSpec("dialect", LINUXCNC, "G-code dialect: linuxcnc, grbl (M3 S power word) or marlin (M300 pen servo, "
+                                   "G4 P in ms); a run_program goal may name its own", choices=tuple(DIALECTS)),
+    ParamSpec("pen_up_z", DEFAULT_PEN_UP_Z, "z_mode pen: Z above this lifts the pen, at or below lowers it", "mm",
+              low=-COORDINATE, high=COORDINATE),
+    ParamSpec("marlin_pen_down", DEFAULT_MARLIN_PEN_DOWN, "dialect marlin: the M300 S angle that lowers the pen",
+              "degrees", low=0.0, high=255.0),
+    ParamSpec("marlin_pen_up", DEFAULT_MARLIN_PEN_UP, "dialect marlin: the M300 S angle that lifts the pen",
+              "degrees", low=0.0, high=255.0),
     *MACHINE,
     ParamSpec("journal_dir", "", "directory of the job journal ('' = $ROS_HOME/plotter_journal)", read_only=True),
     ParamSpec("lease", 2.0, "how long the bridge goes on with a job after this node stops renewing it", "s",
@@ -122,6 +132,8 @@ SPECS = (
 
 
 def check_streamer(values) -> Optional[str]:
+    if values["marlin_pen_down"] == values["marlin_pen_up"]:
+        return f"marlin_pen_down = marlin_pen_up = {values['marlin_pen_up']:g}: the pen angles must differ"
     return check_work_area(values) or ordered(values, (("z_min", "z_max"),)) or check_machine(values)
 
 
@@ -129,13 +141,15 @@ def streamer_config(values) -> StreamerConfig:
     """The compiler's settings from the node's parameter values."""
     machine = machine_of(values)
     names = ("rapid_feed", "x_min", "x_max", "y_min", "y_max", "z_min", "z_max", "acceleration",
-             "junction_deviation", "tolerance")
+             "junction_deviation", "tolerance", "pen_up_z", "marlin_pen_down", "marlin_pen_up")
     v = {k: float(values[k]) for k in names}
     return StreamerConfig(machine.steps_per_mm, v["rapid_feed"],
                           WorkArea(v["x_min"], v["x_max"], v["y_min"], v["y_max"], v["z_min"], v["z_max"]),
                           v["acceleration"], v["junction_deviation"], bool(values["lookahead"]),
                           machine.kind, machine.hanging, v["tolerance"],
-                          z_mode=machine.z_mode, z_steps_per_mm=machine.z_steps_per_mm)
+                          z_mode=machine.z_mode, z_steps_per_mm=machine.z_steps_per_mm,
+                          dialect=str(values["dialect"]), pen_up_z=v["pen_up_z"],
+                          marlin_pen_down=v["marlin_pen_down"], marlin_pen_up=v["marlin_pen_up"])
 
 
 class GCodeStreamer(Node):
@@ -190,7 +204,8 @@ class GCodeStreamer(Node):
         self.get_logger().warn(f"{name}: refused: {why}")
 
     # --- one job at a time ---------------------------------------------------------
-    async def _run_in_turn(self, key, text: str, name: str, goal_handle, resume: str) -> Outcome:
+    async def _run_in_turn(self, key, text: str, name: str, goal_handle, resume: str,
+                           dialect: str = "") -> Outcome:
         """Wait for the job's turn, then run it on the worker thread."""
         turn = self._queue.enter(key)
         self._tell_waiting()
@@ -199,7 +214,8 @@ class GCodeStreamer(Node):
         try:
             if goal_handle is not None and goal_handle.is_cancel_requested:
                 return Outcome(False, "canceled before it ran", canceled=True)
-            return await self._waker.wait(self._worker.run(self._timed_run, text, name, goal_handle, resume))
+            job = self._worker.run(self._timed_run, text, name, goal_handle, resume, dialect)
+            return await self._waker.wait(job)
         except Exception as exc:  # a bug must not leave the job without an outcome
             self.get_logger().error(f"{name}: internal error: {exc!r}\n{traceback.format_exc()}")
             return Outcome(False, f"internal error: {exc}")
@@ -213,9 +229,9 @@ class GCodeStreamer(Node):
             if isinstance(key, ServerGoalHandle) and key.is_active:
                 key.publish_feedback(RunProgram.Feedback(jobs_ahead=self._queue.ahead(key)))
 
-    def _timed_run(self, text: str, name: str, goal_handle, resume: str) -> Outcome:
+    def _timed_run(self, text: str, name: str, goal_handle, resume: str, dialect: str = "") -> Outcome:
         t0 = time.monotonic()
-        out = self.run(text, name, goal_handle, resume)
+        out = self.run(text, name, goal_handle, resume, dialect)
         if out.success:
             self.get_logger().info(f"{name}: {out.message} in {time.monotonic() - t0:.1f} s")
         elif out.canceled:
@@ -254,11 +270,13 @@ class GCodeStreamer(Node):
         req = goal_handle.request
         name = req.name or program_name(req.program)
         why = check_request(req.program, name, req.resume)
+        if why is None and req.dialect and req.dialect not in DIALECTS:
+            why = f"unknown G-code dialect {req.dialect[:20]!r}: one of {', '.join(DIALECTS)}"
         if why:
             self._refused(name, why)
             out = Outcome(False, why)
         else:
-            out = await self._run_in_turn(goal_handle, req.program, name, goal_handle, req.resume)
+            out = await self._run_in_turn(goal_handle, req.program, name, goal_handle, req.resume, req.dialect)
         result = RunProgram.Result()
         result.success, result.message, result.lines_done = out.success, out.message, out.lines_done
         result.job_id = out.job_id
@@ -271,7 +289,7 @@ class GCodeStreamer(Node):
             goal_handle.abort()
         return result
 
-    def run(self, text: str, name: str, goal_handle, resume: str = "") -> Outcome:
+    def run(self, text: str, name: str, goal_handle, resume: str = "", dialect: str = "") -> Outcome:
         """Run one program, or resume a journalled job (on the worker thread:
         it waits for the board)."""
         board = self._board_state()
@@ -283,7 +301,7 @@ class GCodeStreamer(Node):
         if resume:
             return self._resume(resume, board, goal_handle)
         try:
-            config = replace(self.config, link_seq=board.next_seq,
+            config = replace(self.config, dialect=dialect or self.config.dialect, link_seq=board.next_seq,
                              link_baud=link_baud(int(self.params["link_baud"]), board.link_baud))
             commands = compile_program(text, config, start, board.z_steps)
         except GCodeError as exc:

@@ -20,6 +20,7 @@ from rclpy.parameter import Parameter
 
 from plotter_interfaces.action import RunProgram
 
+from plotter_bridge.gcode.dialect import GCodeOptions
 from plotter_bridge.motion.kinematics import DEFAULT_Z_STEPS_PER_MM, Machine
 from plotter_bridge.sim.faults import FaultSpec
 from plotter_bridge.sim.mock_board import MockBoard, MockBoardConfig
@@ -46,6 +47,7 @@ class GraphOptions:
     z_axis: bool = False           # G-code Z moves a third axis (firmware ZAXIS=1), not the pen
     z_steps_per_mm: float = DEFAULT_Z_STEPS_PER_MM
     z_range: Optional[Tuple[float, float]] = None   # travel of Z, z_min, z_max (mm)
+    gcode: GCodeOptions = field(default_factory=GCodeOptions)   # the programs' dialect and pen rules
 
 
 @dataclass
@@ -93,6 +95,9 @@ class LocalGraph:
         if options.z_range is not None:
             streamer_params += [Parameter(name, value=float(v)) for name, v in
                                 zip(("z_min", "z_max"), options.z_range)]
+        streamer_params += [Parameter("dialect", value=options.gcode.dialect),
+                            *(Parameter(name, value=float(getattr(options.gcode, name)))
+                              for name in ("pen_up_z", "marlin_pen_down", "marlin_pen_up"))]
         if options.journal_dir:
             streamer_params.append(Parameter("journal_dir", value=options.journal_dir))
         self.streamer = GCodeStreamer(namespace=options.namespace, context=self._context,
