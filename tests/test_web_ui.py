@@ -97,7 +97,10 @@ def click_for_job(page, element_id: str) -> None:
     """Click a button that starts a job, and wait until the page shows the new job."""
     count = job_count(page.driver)
     page.driver.find_element("id", element_id).click()
-    wait_until(lambda: job_count(page.driver) != count, 30, "the job to be sent")
+    try:
+        wait_until(lambda: job_count(page.driver) != count, 30, "the job to be sent")
+    except TimeoutError:
+        raise TimeoutError(f"no job sent; the page says: {text(page.driver, 'message')!r}") from None
 
 
 def wait_job(page, status: str, timeout: float = 120) -> None:

@@ -35,6 +35,7 @@ from plotter_bridge.nodes.qos import latched
 from .app import Refused, WebApp, serve, stop, token_ok
 from .jobs import Checked, check_program, check_upload, jog_program
 
+SERVER_WAIT_S = 5.0      # s a request waits for an action server it has not seen yet
 STATE_PERIOD = 0.1       # s: the page gets the board's state at most this often
 SERVICES = {"hold": "hold", "resume": "resume", "estop": "estop", "reset": "reset", "set_origin": "set_origin"}
 
@@ -218,9 +219,15 @@ class WebUi(Node):
         return f"{name}: {response.message}"
 
     async def _send(self, client: ActionClient, goal, name: str, action: str, node: str) -> str:
-        if not client.server_is_ready():
-            raise Refused(f"{self.get_namespace()}/{action} does not answer: is {node} running?")
         self._set_job(name=name, status="sending", progress=0.0, seconds_left=0.0, line=0, message="")
+        for _ in range(int(SERVER_WAIT_S / 0.1)):     # just started: discovery may still be on its way
+            if client.server_is_ready():
+                break
+            await asyncio.sleep(0.1)
+        else:
+            why = f"{self.get_namespace()}/{action} does not answer: is {node} running?"
+            self._set_job(status="aborted", message=why)
+            raise Refused(why)
         try:
             handle = await asyncio.wait_for(_wrap(client.send_goal_async(
                 goal, feedback_callback=lambda fb: self._on_feedback(fb.feedback))), 10.0)
