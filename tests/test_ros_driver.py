@@ -548,3 +548,35 @@ def test_the_launch_file_starts_what_it_describes(tmp_path):
         for p in reversed(procs):
             assert p.interrupt() == 0, p.output()
             p.close()
+
+
+def test_a_job_whose_bridge_dies_ends_with_the_reason_and_the_streamer_rests(tmp_path):
+    """The bridge killed mid-job: the goal ends (no waiting forever), and the
+    streamer goes back to using no processor time."""
+    import os as _os
+    from action_msgs.msg import GoalStatus
+    from plotter_interfaces.action import RunProgram
+    domain = _domain()
+    g = PlotterGraph(domain, tmp_path)
+    probe = Probe(domain)
+    try:
+        client = probe.action_client(RunProgram, "run_program")
+        assert client.wait_for_server(timeout_sec=60)
+        slow = "G21 G90\nG0 X20 Y60\nM3\n" + "G1 X180 Y60 F900\nG1 X20 Y61\n" * 4 + "M5\nM2\n"
+        feedback = [[]]
+        (handle,) = _send_all(client, [RunProgram.Goal(name="orphan", program=slow)], feedback)
+        wait_until(lambda: any(f.current_line > 3 for f in feedback[0]), 60, "the job to run")
+        g.bridge.proc.kill()
+        res = _wait(handle.get_result_async(), 60, "the job's end")
+        assert res.status == GoalStatus.STATUS_ABORTED
+        assert "serial bridge went away" in res.result.message and "plotter resume" in res.result.message
+
+        def cpu() -> float:
+            fields = Path(f"/proc/{g.streamer.proc.pid}/stat").read_text().rsplit(")", 1)[1].split()
+            return (int(fields[11]) + int(fields[12])) / _os.sysconf("SC_CLK_TCK")
+        before = cpu()
+        time.sleep(3.0)
+        assert cpu() - before < 0.3, "the streamer keeps working for a job that ended"
+    finally:
+        probe.close()
+        g.close()

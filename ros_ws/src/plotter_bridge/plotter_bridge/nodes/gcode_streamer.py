@@ -74,6 +74,7 @@ from .params import (COORDINATE, MACHINE, WORK_AREA, NodeParameters, ParamSpec, 
 from .qos import latched
 
 MAX_NAME_LEN = 200
+BRIDGE_LOST_S = 10.0             # s without the bridge's action server before a running job is given up
 
 
 @dataclass
@@ -399,6 +400,8 @@ class GCodeStreamer(Node):
             return Outcome(False, "serial bridge refused the job (busy, disconnected or bad commands)", 0, job_id)
         res_future = inner.get_result_async()
         last_renew = time.monotonic()
+        journalled = -1
+        bridge_seen = time.monotonic()
         while not res_future.done():
             if not self.context.ok():               # the node is stopping: the lease ends the job
                 return Outcome(False, "the streamer stopped", 0, job_id)
@@ -407,10 +410,20 @@ class GCodeStreamer(Node):
                 _wait(res_future, 10.0)
                 break
             _wait(res_future, min(0.05, self.lease / 4))
-            if time.monotonic() - last_renew >= self.lease / 4:
+            now = time.monotonic()
+            if now - last_renew >= self.lease / 4:
                 self.pub_lease.publish(lease)
-                last_renew = time.monotonic()
-            self.journal.update(job_id, Progress(progress.completed, RUNNING))
+                last_renew = now
+            if self._bridge.server_is_ready():
+                bridge_seen = now
+            elif now - bridge_seen > BRIDGE_LOST_S:
+                why = (f"the serial bridge went away {BRIDGE_LOST_S:g} s ago, after command {progress.completed} "
+                       f"of {len(record.commands)}: start it again, then plotter resume {job_id}")
+                self.journal.update(job_id, Progress(progress.completed, INTERRUPTED, why))
+                return Outcome(False, why, 0, job_id)
+            if progress.completed != journalled:
+                self.journal.update(job_id, Progress(progress.completed, RUNNING))
+                journalled = progress.completed
         res = res_future.result().result if res_future.done() else None
         if res is None:
             return Outcome(False, "canceled", 0, job_id, canceled=True)
