@@ -1,6 +1,7 @@
 #!/usr/bin/env python3
 """Benchmark of the plotter: drawing time against the time-optimal bound,
-throughput of the serial link, position latency, and the host nodes' load.
+throughput of the serial link, position latency, the host nodes' load, and
+the hanging plotter's accuracy over its work area.
 
 Run through benchmarks/run (sets the project up first).  Two boards:
 
@@ -14,7 +15,8 @@ Both send the board's replies at the baud rate and hold the firmware's main
 loop while its transmit ring is full, as the 8051 does.
 
 The output ends with the line
-`figures: time_ratio_max=R link_utilization_min=U underruns=N`.
+`figures: time_ratio_max=R link_utilization_min=U underruns=N
+hanging_deviation_max_mm=D hanging_lines_per_m=L` (one line).
 """
 from __future__ import annotations
 
@@ -36,6 +38,8 @@ from plotter_bridge.motion.compiler import StreamerConfig
 from plotter_bridge.link.protocol import machine_line
 
 from bound import Limits, program_time
+from hanging_sweep import HANGING_AREA, Drawn, by_group, draw_cases, hanging_config, sweep_cases
+from hanging_sweep import summary as sweep_summary
 from latency import report_ages
 from programs import (Program, bound_items, compile_for, figure_programs, motion_count,
                       polygon_program, spiral_program, staircase_program)
@@ -302,6 +306,37 @@ def mock_runs(args, programs: Sequence[Program], cases: Sequence[LinkCase], limi
     return links, hosts
 
 
+def hanging_accuracy() -> List[Drawn]:
+    """The hanging plotter's sweep over its default work area (hanging_sweep.py)."""
+    return draw_cases(sweep_cases(), hanging_config())
+
+
+def hanging_report(drawn: List[Drawn]) -> List[str]:
+    config = hanging_config()
+    g = config.hanging
+    out = ["## 5. Hanging plotter (seed 003): accuracy over the work area", "",
+           f"Circles and lines over a grid of places covering `--machine hanging`'s default work area "
+           f"({HANGING_AREA.describe()}; pulleys at X{g.left[0]:g} Y{g.left[1]:g} and X{g.right[0]:g} "
+           f"Y{g.right[1]:g}, {g.steps_per_mm:.2f} steps per mm of string), corners and edges included "
+           f"(benchmarks/hanging_sweep.py), compiled as gcode_streamer compiles them (tolerance "
+           f"{config.tolerance:g} mm) and stepped by the firmware core: deviation = the largest "
+           f"distance of a step drawn with the pen down from the programmed path; board lines per "
+           f"metre drawn, pen down.", ""]
+    head = ["cases", "count", "drawn m", "board lines", "lines per m", "worst deviation mm", "at X, Y mm",
+            "in"]
+    out.append("| " + " | ".join(head) + " |")
+    out.append("|" + "|".join("---" for _ in head) + "|")
+    groups = list(by_group(drawn).items()) + [("all", drawn)]
+    for name, rows in groups:
+        worst, where, per_metre = sweep_summary(rows)
+        metres = sum(d.case.length for d in rows) / 1000.0
+        out.append("| " + " | ".join([
+            name, str(len(rows)), f"{metres:.1f}", str(sum(d.commands for d in rows)), f"{per_metre:.1f}",
+            f"{worst:.4f}", f"{where.where[0]:.1f}, {where.where[1]:.1f}", where.case.name]) + " |")
+    out.append("")
+    return out
+
+
 # ------------------------------------------------------------------ the table
 
 def report(draw: List[DrawRow], links: List[LinkRow], hosts: List[HostRow], mock: bool,
@@ -498,16 +533,21 @@ def main() -> int:
         links = links + mock_links
     order = {c.label: k for k, c in enumerate(cases)}
     links.sort(key=lambda r: (-r.case.baud, order[r.case.label], not r.case.default, r.board))
+    log("hanging plotter: accuracy over the work area")
+    hanging = hanging_accuracy()
     lines, ratio_max, util_min, underruns = report(draw, links, hosts, not args.sim_only,
                                                    args.mock_exponential and not args.sim_only)
-    summary = (f"figures: time_ratio_max={ratio_max:.3f} link_utilization_min={util_min:.3f} "
-               f"underruns={underruns}")
+    lines += hanging_report(hanging)
+    deviation, _, per_metre = sweep_summary(hanging)
+    figures = (f"figures: time_ratio_max={ratio_max:.3f} link_utilization_min={util_min:.3f} "
+               f"underruns={underruns} hanging_deviation_max_mm={deviation:.4f} "
+               f"hanging_lines_per_m={per_metre:.1f}")
     text = "\n".join(lines)
     if args.record:
-        record(Path(args.record), text, summary, time.monotonic() - t_start, load_before)
+        record(Path(args.record), text, figures, time.monotonic() - t_start, load_before)
         log(f"recorded in {args.record}")
     print(text)
-    print(summary, flush=True)
+    print(figures, flush=True)
     return 0
 
 

@@ -1,9 +1,11 @@
 """The hanging plotter (seed 003) end to end through the node graph on the mock board:
 each node a process with `machine:=hanging`, a 50 cm circle from G-code, the
-trace, /plotter/position and /plotter/planned_path in pen coordinates."""
+trace, /plotter/position and /plotter/planned_path in pen coordinates; a
+line where the tolerance cannot be held is refused and nothing moves."""
 import math
 import random
 import threading
+import time
 
 import pytest
 
@@ -23,7 +25,8 @@ def test_hanging_circle_through_the_graph_stays_within_a_tenth_of_a_millimetre(t
 
     domain = random.SystemRandom().randint(110, 200)
     hanging = ("-p", "machine:=hanging")
-    area = ("-p", "x_max:=800.0", "-p", "y_max:=1000.0")
+    # Up to 20 mm below the pulleys: beyond the accurate area at the top.
+    area = ("-p", "x_max:=800.0", "-p", "y_max:=1130.0")
     graph = PlotterGraph(domain, tmp_path, board_args=hanging, bridge_args=hanging,
                          streamer_args=hanging + area)
     probe = Probe(domain)
@@ -66,6 +69,21 @@ def test_hanging_circle_through_the_graph_stays_within_a_tenth_of_a_millimetre(t
         on_circle = next(k for k, p in enumerate(plan) if math.dist(p, (650, 500)) < 0.05)
         assert len(plan) - on_circle > 50
         assert max(abs(math.hypot(x - 400, y - 500) - 250) for x, y in plan[on_circle:]) <= 0.1
+
+        steps = len(read_trace_floats(graph.trace))
+        program = "G21 G90\nG0 X100 Y1000\nM3\nG1 X700 Y1100 F3000\nM5\n"
+        send = client.send_goal_async(RunProgram.Goal(program=program, name="too near the pulleys"))
+        wait_until(send.done, 30, "goal acceptance")
+        res = send.result().get_result_async()
+        wait_until(res.done, 30, "the refusal")
+        result = res.result()
+        assert result.status == GoalStatus.STATUS_ABORTED
+        assert "line 4" in result.result.message and "cannot be held within 0.1 mm" in result.result.message \
+            and " Y10" in result.result.message, result.result.message
+        time.sleep(1.0)       # a step taken now would be in the trace by then
+        assert len(read_trace_floats(graph.trace)) == steps, "nothing moved"
+        with lock:
+            assert math.hypot(positions[-1][0] - 650, positions[-1][1] - 500) < 0.05
     except BaseException:
         print(graph.outputs())
         raise

@@ -1,12 +1,14 @@
-"""The hanging plotter (seed 003): kinematics, and pen accuracy of motor-space
-pieces interpolated step by step by the firmware core."""
+"""The hanging plotter (seed 003): kinematics, where a motor step moves the
+pen, and pen accuracy of the cut's board lines stepped by the firmware core
+(tests/test_hanging_accuracy.py sweeps the whole work area)."""
 import math
 
 import pytest
 
 from firmware_build import host_library
 from plotter_bridge.sim.firmware_core import FirmwareCore
-from plotter_bridge.motion.kinematics import HangingGeometry, arc_path, line_path, motor_pieces
+from plotter_bridge.motion.hanging import ArcPath, LinePath, cut
+from plotter_bridge.motion.kinematics import HangingGeometry
 
 GEOMETRY = HangingGeometry()
 
@@ -23,13 +25,30 @@ def test_seed_equations_and_round_trip():
         assert q == pytest.approx(p, abs=1e-9)
 
 
-def draw(core, pieces_mm):
-    """Send motor-space lines for pen points; return the pen position after every step."""
+@pytest.mark.parametrize("p", [(0, 0), (400, 1000), (800, 0), (100, 900), (400, -500), (700, 1100)])
+def test_pen_steps_are_where_one_motor_step_moves_the_pen(p):
+    g = GEOMETRY
+    m = g.inverse(p)
+    for k, s in enumerate(g.pen_steps(p)):
+        moved = g.forward((m[0] + (k == 0), m[1] + (k == 1)))
+        assert math.hypot(moved[0] - p[0] - s[0], moved[1] - p[1] - s[1]) < 1e-3 * math.hypot(*s)
+        assert math.hypot(*s) == pytest.approx(g.pen_step(p))
+
+
+def test_a_pen_step_grows_where_the_strings_come_into_line():
+    g = GEOMETRY
+    assert g.pen_step((400, 500)) == pytest.approx(77 / 3200, rel=0.05)   # strings near right angles
+    assert g.pen_step((400, 1000)) > 1.9 * g.pen_step((400, 500))         # 150 mm below the pulleys
+    assert g.pen_step((400, 1140)) > 10 * g.pen_step((400, 1000))
+
+
+def draw(core, pieces_mm, tail=()):
+    """Send motor-space lines through pen points (rounded), then through motor
+    positions; return the pen position after every step."""
     pen = []
     here = (0, 0)
     pending = []
-    for p in pieces_mm:
-        m = tuple(round(v) for v in GEOMETRY.inverse(p))
+    for m in [tuple(round(v) for v in GEOMETRY.inverse(p)) for p in pieces_mm] + list(tail):
         pending.append((m[0] - here[0], m[1] - here[1]))
         here = m
     while pending:
@@ -53,9 +72,9 @@ def test_50cm_circle_at_nine_places_within_a_tenth_of_a_millimetre(cx, cy):
     r = 250.0
     start = (cx + r, cy)
     travel = [(start[0] * k / 4, start[1] * k / 4) for k in range(1, 5)]   # board moves are < 32768 steps
-    circle = arc_path(start, start, (cx, cy), cw=False)
-    cuts = motor_pieces(circle, GEOMETRY, tolerance=0.1)
-    pen = draw(core, travel + [circle(t) for t in cuts[1:]])
+    circle = ArcPath.through(start, start, (cx, cy), cw=False)
+    pieces = cut(circle, GEOMETRY, 0.1, tuple(round(v) for v in GEOMETRY.inverse(start)))
+    pen = draw(core, travel, [m for _, m in pieces])
     core.close()
     first = next(k for k, p in enumerate(pen) if math.hypot(p[0] - start[0], p[1] - start[1]) < 0.05)
     worst = max(abs(math.hypot(x - cx, y - cy) - r) for x, y in pen[first:])
@@ -65,9 +84,8 @@ def test_50cm_circle_at_nine_places_within_a_tenth_of_a_millimetre(cx, cy):
 def test_straight_line_stays_straight():
     core = FirmwareCore(host_library())
     p0, p1 = (100.0, 100.0), (700.0, 800.0)
-    path = line_path(p0, p1)
-    cuts = motor_pieces(path, GEOMETRY, tolerance=0.1)
-    pen = draw(core, [(p0[0] / 2, p0[1] / 2), p0] + [path(t) for t in cuts[1:]])
+    pieces = cut(LinePath(p0, p1), GEOMETRY, 0.1, tuple(round(v) for v in GEOMETRY.inverse(p0)))
+    pen = draw(core, [(p0[0] / 2, p0[1] / 2), p0], [m for _, m in pieces])
     core.close()
     first = next(k for k, p in enumerate(pen) if math.hypot(p[0] - p0[0], p[1] - p0[1]) < 0.05)
     dx, dy = p1[0] - p0[0], p1[1] - p0[1]

@@ -15,7 +15,8 @@ from plotter_bridge.gcode.parser import load_program
 from plotter_bridge.gcode.limits import WorkArea, check_limits
 from plotter_bridge.gcode.steps import to_steps
 from plotter_bridge.gcode.types import GCodeError
-from .kinematics import DEFAULT_Z_STEPS_PER_MM, HangingGeometry, check_z, hanging_motion
+from .hanging import hanging_motion
+from .kinematics import DEFAULT_Z_STEPS_PER_MM, HangingGeometry, check_z
 from .planner import PlannerLimits, cap_for_link, plan
 
 MAX_PROGRAM_BYTES = 4 * 1024 * 1024

@@ -10,16 +10,15 @@ the pen at (x, y) the string lengths are (seed 003, equations (1), (2))
 
 and each motor turns pulses_per_rev pulses per spool circumference of string.
 Motor positions count from the power-on origin, where the pen is at (0, 0).
-A straight line in motor space is a curve on paper, so every programmed line
-and arc is cut into pieces short enough that the pen stays within a
-tolerance of the programmed path while the board interpolates each piece as
-a straight line of motor steps.
+A straight line in motor space is a curve on paper: motion/hanging.py cuts
+every programmed line and arc into board lines that keep the pen within a
+tolerance of the path, staircase included.
 """
 from __future__ import annotations
 
 import math
 from dataclasses import dataclass
-from typing import Callable, List, Tuple
+from typing import Tuple
 
 Point = Tuple[float, float]
 
@@ -64,6 +63,28 @@ class HangingGeometry:
         # The pen hangs below the line through the pulleys.
         return (x1 + along * ux + h * uy, y1 + along * uy - h * ux)
 
+    def pen_steps(self, p: Point) -> Tuple[Point, Point]:
+        """Where one step of the left motor moves the pen at p, and where one
+        step of the right motor does (mm, for a step that lengthens its
+        string): the columns of the inverse of the Jacobian of `inverse`.
+        A step of one motor swings the pen about the other pulley, so it
+        moves across the other string, by one step of string divided by the
+        sine of the angle between the strings: large where they are nearly
+        in line (near the pulleys' height) or nearly parallel (far below)."""
+        a, b = self.lengths(p)
+        ua = ((p[0] - self.left[0]) / a, (p[1] - self.left[1]) / a)
+        ub = ((p[0] - self.right[0]) / b, (p[1] - self.right[1]) / b)
+        det = (ua[0] * ub[1] - ua[1] * ub[0]) * self.steps_per_mm
+        return (ub[1] / det, -ub[0] / det), (-ua[1] / det, ua[0] / det)
+
+    def pen_step(self, p: Point) -> float:
+        """How far one motor step moves the pen at p (mm); the same for both
+        motors."""
+        a, b = self.lengths(p)
+        cross = ((p[0] - self.left[0]) * (p[1] - self.right[1])
+                 - (p[1] - self.left[1]) * (p[0] - self.right[0])) / (a * b)
+        return 1.0 / (abs(cross) * self.steps_per_mm)
+
 
 MACHINES = ("cartesian", "hanging")
 Z_MODES = ("pen", "axis")     # what G-code Z drives: the pen up/down, or a third axis (ZAXIS=1)
@@ -106,92 +127,3 @@ def check_z(z_mode: str, z_steps_per_mm: float) -> None:
         raise ValueError(f"z_mode must be one of {', '.join(Z_MODES)}, not {z_mode!r}")
     if not (math.isfinite(z_steps_per_mm) and z_steps_per_mm > 0):
         raise ValueError(f"z_steps_per_mm must be a positive number, not {z_steps_per_mm!r}")
-
-
-def motor_pieces(path: Callable[[float], Point], geometry: HangingGeometry,
-                 tolerance: float) -> List[float]:
-    """Parameters 0 = t_0 < t_1 < ... = 1 cutting path (a function of t in [0, 1]
-    giving the pen position in mm) into pieces that, drawn as straight motor
-    lines, keep the pen within `tolerance` mm of the path.  Half of the
-    tolerance goes to the pieces' curvature; the other half is left for the
-    board's staircase (one motor step off the motor line, about 0.025 mm of
-    string) and for rounding the piece ends to whole steps."""
-    budget = tolerance / 2
-
-    def error(t0: float, t1: float) -> float:
-        # Point against point at the same fraction: stricter than the distance
-        # to the path, and it notices a piece whose ends coincide (a full circle).
-        m0, m1 = geometry.inverse(path(t0)), geometry.inverse(path(t1))
-        worst = 0.0
-        for f in (0.25, 0.5, 0.75):
-            q = geometry.forward((m0[0] + (m1[0] - m0[0]) * f, m0[1] + (m1[1] - m0[1]) * f))
-            p = path(t0 + (t1 - t0) * f)
-            worst = max(worst, math.hypot(q[0] - p[0], q[1] - p[1]))
-        return worst
-
-    cuts = [0.0]
-    stack = [(0.0, 1.0)]
-    # Depth-first from the start so that the cuts come out in order.
-    while stack:
-        t0, t1 = stack.pop()
-        if t1 - t0 > 1e-6 and error(t0, t1) > budget:
-            mid = (t0 + t1) / 2
-            stack.append((mid, t1))
-            stack.append((t0, mid))
-        else:
-            cuts.append(t1)
-    return cuts
-
-
-def line_path(p0: Point, p1: Point) -> Callable[[float], Point]:
-    return lambda t: (p0[0] + (p1[0] - p0[0]) * t, p0[1] + (p1[1] - p0[1]) * t)
-
-
-def arc_path(p0: Point, p1: Point, centre: Point, cw: bool) -> Callable[[float], Point]:
-    r = math.hypot(p0[0] - centre[0], p0[1] - centre[1])
-    a0 = math.atan2(p0[1] - centre[1], p0[0] - centre[0])
-    a1 = math.atan2(p1[1] - centre[1], p1[0] - centre[0])
-    sweep = ((a0 - a1) if cw else (a1 - a0)) % (2 * math.pi)
-    if sweep == 0.0:
-        sweep = 2 * math.pi
-    sign = -1.0 if cw else 1.0
-    return lambda t: (centre[0] + r * math.cos(a0 + sign * sweep * t),
-                      centre[1] + r * math.sin(a0 + sign * sweep * t))
-
-
-def hanging_motion(geometry: HangingGeometry, tolerance: float):
-    """A motion converter (commands.to_commands) for the hanging machine:
-    each programmed move (gcode.types.Move, mm) becomes straight board lines
-    between motor positions rounded once, absolutely, so errors never add up."""
-    from .commands import MAX_DELTA, straight
-
-    here = {"motor": None}
-
-    def convert(move, feed: float):
-        start = (move.sx, move.sy)
-        end = (move.x, move.y)
-        if move.kind == "arc":
-            path = arc_path(start, end, (move.cx, move.cy), bool(move.cw))
-        else:
-            path = line_path(start, end)
-        if here["motor"] is None:
-            here["motor"] = tuple(round(v) for v in geometry.inverse(start))
-        cuts = motor_pieces(path, geometry, tolerance)
-        out = []
-        prev_pen = start
-        for t in cuts[1:]:
-            pen = path(t)
-            target = tuple(round(v) for v in geometry.inverse(pen))
-            dx, dy = target[0] - here["motor"][0], target[1] - here["motor"][1]
-            length = math.hypot(pen[0] - prev_pen[0], pen[1] - prev_pen[1])
-            pieces = max(1, math.ceil(max(abs(dx), abs(dy)) / MAX_DELTA))
-            for k in range(pieces):
-                px = round(dx * (k + 1) / pieces) - round(dx * k / pieces)
-                py = round(dy * (k + 1) / pieces) - round(dy * k / pieces)
-                if px or py:
-                    out.append(straight(px, py, move.line, feed, length / pieces))
-            here["motor"] = target
-            prev_pen = pen
-        return out
-
-    return convert
