@@ -126,11 +126,14 @@ def test_each_dialect_draws_what_linuxcnc_draws(seed, dialect):
 @pytest.mark.parametrize("pen_up_z", [-2.0, -0.5, 0.0, 0.3, 1.0, 5.0])
 @pytest.mark.parametrize("dialect", sorted(DIALECTS))
 def test_pen_from_z_by_threshold(pen_up_z, dialect):
-    rng = random.Random(hash((pen_up_z, dialect)) & 0xffff)
+    # A seed of its own per case (str hashes change with each process), and the levels on both
+    # sides of the threshold and at it each appear: the check is never vacuous.
+    rng = random.Random(f"{dialect}/{pen_up_z}")
     levels = [-3.0, -1.0, -0.5, 0.0, 0.3, 1.0, 2.0, 5.0, 6.0, pen_up_z]
+    zs = [pen_up_z - 1.0, pen_up_z, pen_up_z + 1.0] + [rng.choice(levels) for _ in range(37)]
+    rng.shuffle(zs)
     lines, expected = ["G21 G90 F600"], []
-    for k in range(40):
-        z = rng.choice(levels)
+    for k, z in enumerate(zs):
         lines.append(f"G1 X{k + 1} Z{z}")
         expected.append("up" if z > pen_up_z else "down")
     moves = [m for m in parse("\n".join(lines) + "\n", options=GCodeOptions(dialect, pen_up_z))

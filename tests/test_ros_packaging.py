@@ -130,8 +130,10 @@ def test_colcon_test_runs_each_packages_own_tests_and_they_pass(tmp_path):
                             "--event-handlers", "console_direct-"],
                            cwd=ws, capture_output=True, text=True, env=env, timeout=600)
         assert r.returncode == 0, r.stdout + r.stderr
-    r = subprocess.run([str(REPO / ".venv" / "bin" / "colcon"), "test-result", "--test-result-base",
-                        str(tmp_path / "build"), "--verbose"], capture_output=True, text=True, env=env, timeout=120)
+    # colcon writes a log of every verb, test-result too: it goes under tmp_path, not the checkout.
+    r = subprocess.run([str(REPO / ".venv" / "bin" / "colcon"), "--log-base", str(tmp_path / "log"), "test-result",
+                        "--test-result-base", str(tmp_path / "build"), "--verbose"],
+                       cwd=tmp_path, capture_output=True, text=True, env=env, timeout=120)
     assert r.returncode == 0, r.stdout + r.stderr
     summary = re.search(r"Summary: (\d+) tests, (\d+) errors, (\d+) failures", r.stdout)
     assert summary and summary.group(2) == summary.group(3) == "0", r.stdout
