@@ -42,6 +42,14 @@
 #include "planner.h"
 #include "ramp.h"
 
+/* ST_STATE: the interrupt's own state, static unless the HAL brings the
+ * interrupt itself (HAL_STEPPER_ISR_EXTERNAL), which then shares it. */
+#ifdef HAL_STEPPER_ISR_EXTERNAL
+#define ST_STATE
+#else
+#define ST_STATE static
+#endif
+
 FAST int32_t pos_x, pos_y;
 #ifdef ZAXIS
 XDATA int32_t pos_z;
@@ -52,7 +60,11 @@ FAST volatile uint8_t st_port;
 FAST volatile uint8_t st_level;
 IDATA volatile uint16_t st_underruns;
 
+#ifdef HAL_STEP_PERIOD
+#define st_period HAL_STEP_PERIOD         /* the timer's own reload register */
+#else
 static FAST uint16_t st_period;       /* HAL_PERIOD form: from the next pulse to the one after */
+#endif
 #if defined(INTERP_DDA)
 static FAST uint16_t st_jx, st_jy;    /* the X and Y integrators' remainders, 0..st_cap-1 */
 static FAST uint16_t st_cap;          /* their capacity, a power of two: reaching it is a step */
@@ -65,33 +77,34 @@ static FAST union {
 #define st_lf st_f.line
 static FLAG st_ybase;                 /* line: Y is the base axis, the one that steps every time */
 #else
-static FAST int16_t st_lf;            /* line: deviation F */
-static FAST int32_t st_af;            /* arc: deviation F = x^2 + y^2 - R^2 */
+ST_STATE FAST int16_t st_lf;            /* line: deviation F */
+ST_STATE FAST int32_t st_af;            /* arc: deviation F = x^2 + y^2 - R^2 */
 #endif
 #ifdef DRIVE_PHASE
 static XDATA uint8_t st_phase_y;      /* the Y windings' pattern (no byte of internal RAM is left) */
 #endif
 #ifdef INTERP_DDA
-static FAST uint8_t st_moves;         /* arc: the quadrant's two moves, both arc_moves nibbles */
+ST_STATE FAST uint8_t st_moves;         /* arc: the quadrant's two moves, both arc_moves nibbles */
 #else
-static FAST uint8_t st_moves;         /* arc: the quadrant's arc_moves entry */
+ST_STATE FAST uint8_t st_moves;         /* arc: the quadrant's arc_moves entry */
 #endif
-static FAST uint16_t st_level_left;   /* steps left at the current level */
-static IDATA uint16_t st_below;       /* hold steps of all the levels below this one */
-static FAST uint16_t st_brake_at;     /* braking must have begun once steps left <= this */
-static FAST uint16_t st_cruise_to;    /* cruising: nothing to do while steps left > this */
-static FAST uint8_t st_cruise_lo, st_cruise_hi;  /* cruising: steps to the braking point, see CRUISE_SET */
-static FLAG st_pulse_x, st_pulse_y;   /* step to emit at the next interrupt */
-static FLAG st_load;                  /* the segment is done: load the next one */
-static FLAG st_line;                  /* the segment is a line */
-static FLAG st_cruising;              /* at the cruise level with its period set */
-static FLAG st_stale;                 /* st_period is not the current level's table period */
-static FLAG st_end_x0;                /* arc: the quadrant ends on the Y axis, where x reaches 0 */
-static FLAG st_end_neg;               /* arc: ... on its negative half */
+ST_STATE FAST uint16_t st_level_left;   /* steps left at the current level */
+ST_STATE IDATA uint16_t st_below;       /* hold steps of all the levels below this one */
+ST_STATE FAST uint16_t st_brake_at;     /* braking must have begun once steps left <= this */
+ST_STATE FAST uint16_t st_cruise_to;    /* cruising: nothing to do while steps left > this */
+ST_STATE FAST uint8_t st_cruise_lo, st_cruise_hi;  /* cruising: steps to the braking point, see CRUISE_SET */
+ST_STATE FLAG st_pulse_x, st_pulse_y;   /* step to emit at the next interrupt */
+ST_STATE FLAG st_load;                  /* the segment is done: load the next one */
+ST_STATE FLAG st_line;                  /* the segment is a line */
+ST_STATE FLAG st_cruising;              /* at the cruise level with its period set */
+ST_STATE FLAG st_stale;                 /* st_period is not the current level's table period */
+ST_STATE FLAG st_end_x0;                /* arc: the quadrant ends on the Y axis, where x reaches 0 */
+ST_STATE FLAG st_end_neg;               /* arc: ... on its negative half */
 #ifdef ZAXIS
 static FLAG st_zmove;                 /* the line is a Z move: its Y steps go to Z */
 #endif
 
+#ifndef HAL_STEPPER_ISR_EXTERNAL
 /* Per quadrant index (4 if clockwise, plus quadrant I..IV = 0..3): the move
  * for F >= 0 in the low nibble, for F < 0 in the high nibble (seed 000
  * table 2.2). */
@@ -118,6 +131,8 @@ static RAMP_ROM uint8_t arc_turns[8] = {
     TURN(1, 1), TURN(2, 2), TURN(3, 3), TURN(0, 0),     /* ccw */
     TURN(0, 7), TURN(1, 4), TURN(2, 5), TURN(3, 6),     /* cw */
 };
+
+#endif
 
 #ifdef DRIVE_PHASE
 /* The winding pattern after each pattern: forwards (towards +) at the
@@ -254,6 +269,7 @@ void stepper_resume(void)
     }
 }
 
+#ifndef HAL_STEPPER_ISR_EXTERNAL
 /* An arc enters quadrant st_seg.quadrant: its moves and its end. */
 INLINE void arc_enter_quadrant(void)
 {
@@ -908,3 +924,4 @@ turn:
 #endif
     goto ramp;
 }
+#endif

@@ -1,5 +1,6 @@
 /* hal_mcs51.h - the core's hardware layer on the STC89C52RC.
- * Timer 0 (16-bit, high priority) paces the steps; port 1 carries step,
+ * Timer 2 (Timer 0 in the option images and with BAUD=115200; high
+ * priority) paces the steps; port 1 carries step,
  * direction and pen outputs (firmware/README.md has the pin map). */
 #ifndef HAL_MCS51_H
 #define HAL_MCS51_H
@@ -64,6 +65,29 @@ uint8_t hal_key_scan(void);
     } while (0)
 #endif
 
+#if defined(PANEL) && !defined(BAUD_115200)
+/* The board's image: the step interrupt is hal/mcs51/stepper_isr.asm, the
+ * same logic as core/stepper.c's (tests/test_firmware_asm_equivalence.py
+ * holds them equal step for step), on Timer 2 in 16-bit auto-reload: the
+ * period sits in RCAP2 and the timer reloads it at each overflow, so a step
+ * costs no reload instructions and the pulses keep to the overflows.  The
+ * interrupt writes RCAP2 whenever the period changes: the overflow that
+ * follows takes it, which is the schedule HAL_TIMER_ADVANCE gives. */
+#define HAL_STEPPER_ISR_EXTERNAL 1
+__sfr16 __at(0xCBCA) RCAP2;
+__sfr16 __at(0xCDCC) TMR2;
+#define HAL_STEP_PERIOD RCAP2
+#define HAL_PERIOD(p) ((uint16_t)(0 - (uint16_t)(p)))
+#define HAL_PERIOD_LONGER(a, b) ((uint16_t)(a) < (uint16_t)(b))
+#define STEPPER_ISR void stepper_isr(void) __interrupt(5) __naked
+#define HAL_TIMER_START(p) do {                                              \
+        TR2 = 0;                                                             \
+        TMR2 = (uint16_t)(0 - (uint16_t)(p));                                \
+        TF2 = 0;                                                             \
+        TR2 = 1;                                                             \
+    } while (0)
+#define HAL_TIMER_HALT() do { TR2 = 0; TF2 = 0; } while (0)
+#else
 /* Timer 0 as one 16-bit register (TH0:TL0). */
 __sfr16 __at(0x8C8A) TMR0;
 
@@ -109,6 +133,7 @@ __sfr16 __at(0x8C8A) TMR0;
         TR0 = 1;                                                             \
     } while (0)
 #define HAL_TIMER_HALT() do { TR0 = 0; TF0 = 0; } while (0)
+#endif
 #define HAL_SEGMENT_STARTED(s)
 #define HAL_CRITICAL_BEGIN() (EA = 0)
 #define HAL_CRITICAL_END() (EA = 1)

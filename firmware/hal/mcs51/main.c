@@ -46,11 +46,14 @@ void hal_putc(uint8_t c)
 }
 
 #ifdef PANEL
-/* Timer 1 paces the panel when Timer 2 makes the baud rate, and the other
- * way round: a 1 ms tick, polled by the main loop (no interrupt: the panel's
- * work may wait, the steps may not). */
+/* The panel's 1 ms tick, polled by the main loop (no interrupt: the
+ * panel's work may wait, the steps may not): Timer 0 where Timer 2 paces
+ * the steps, else Timer 2, or Timer 1 when Timer 2 makes the baud rate. */
 #define TICK_RELOAD ((uint16_t)(0 - 922))   /* 922 machine cycles: 1.0004 ms */
-#ifdef BAUD_115200
+#if defined(HAL_STEPPER_ISR_EXTERNAL)
+#define TICK_INIT()                         /* TR0 in TCON_INIT */
+#define TICK_DUE() (TF0 && (TF0 = 0, TH0 = (uint8_t)(TICK_RELOAD >> 8), TL0 = (uint8_t)TICK_RELOAD, 1))
+#elif defined(BAUD_115200)
 #define TICK_INIT()                         /* TR1 in TCON_INIT */
 #define TICK_DUE() (TF1 && (TF1 = 0, TH1 = (uint8_t)(TICK_RELOAD >> 8), TL1 = (uint8_t)TICK_RELOAD, 1))
 #else
@@ -59,18 +62,23 @@ void hal_putc(uint8_t c)
 #endif
 #endif
 
-/* Timer 0 in mode 1 (16 bits): the step timer.  Timer 1 in mode 2 (8-bit
- * auto-reload): the baud rate; with Timer 2 making it, mode 1 for the
- * panel's tick, reloaded by hand. */
+/* The step timer: Timer 2 in 16-bit auto-reload (hal_mcs51.h), or Timer 0
+ * in mode 1 (16 bits).  Timer 1 in mode 2 (8-bit auto-reload): the baud
+ * rate; with Timer 2 making it, mode 1 for the panel's tick, reloaded by
+ * hand. */
 #ifdef BAUD_115200
 #define TMOD_INIT 0x11
 #else
 #define TMOD_INIT 0x21
 #endif
 /* Timer 1 runs (TR1) for the baud rate or the panel's tick; the panel's
- * e-stop (INT0) is edge-triggered (IT0).  Timer 0 (the steps) and the e-stop
+ * e-stop (INT0) is edge-triggered (IT0).  The step timer and the e-stop
  * have the high priority, the UART the low; they run once EA is set. */
-#ifdef PANEL
+#if defined(HAL_STEPPER_ISR_EXTERNAL)
+#define TCON_INIT 0x51              /* TR1, TR0 (the tick), IT0 */
+#define IP_INIT   0x21              /* PT2, PX0 */
+#define IE_INIT   0x31              /* ET2, ES, EX0 */
+#elif defined(PANEL)
 #define TCON_INIT 0x41              /* TR1, IT0 */
 #define IP_INIT   0x03              /* PT0, PX0 */
 #define IE_INIT   0x13              /* ES, ET0, EX0 */
