@@ -88,9 +88,9 @@ SEG_SIZE = 22
 	.area CSEG    (CODE)
 
 _stepper_isr:
+	push	ACC
 	push	PSW
 	setb	RS0
-	xch	a,r7
 	clr	TF2
 	; A closed limit switch at the end the machine heads for: no more pulses.
 	jb	LIM_X,00015$
@@ -205,8 +205,8 @@ cruise_step:
 cruise_go:
 	jb	_st_hold,cruise_held
 exit:
-	xch	a,r7
 	pop	PSW
+	pop	ACC
 	reti
 
 limit_x:
@@ -469,11 +469,11 @@ arc_final_done:
 turn:
 	; The arc has crossed into the next quadrant.
 	mov	a,(_st_seg + 14)
-	acall	turns_of
+	lcall	turns_of
 	swap	a
 	anl	a,#0x07
 	mov	(_st_seg + 14),a
-	acall	enter_quadrant
+	lcall	enter_quadrant
 	djnz	(_st_seg + 15),in_quadrant
 	; Final quadrant: the remaining count is now exact, and the moves
 	; towards the end are known.
@@ -666,7 +666,7 @@ level_change:
 	dec	_st_level
 	dec	_st_level
 	mov	a,_st_level
-	acall	hold_steps
+	lcall	hold_steps
 	mov	_st_level_left,r0
 	mov	_st_level_left + 1,r1
 	mov	r1,#_st_below		; below -= level_left
@@ -681,12 +681,12 @@ level_change:
 	ljmp	level_stale
 level_up:
 	mov	a,_st_level
-	acall	hold_steps
+	lcall	hold_steps
 	mov	_st_level_left,r0
 	mov	_st_level_left + 1,r1
 	mov	a,_st_level
 	add	a,#2
-	acall	hold_steps		; r5:r4 = hold of the next level
+	lcall	hold_steps		; r5:r4 = hold of the next level
 	mov	a,r0
 	mov	r4,a
 	mov	a,r1
@@ -846,7 +846,7 @@ load_dwell:
 	inc	r0
 	mov	@r0,a
 	mov	a,_st_level
-	acall	hold_steps
+	lcall	hold_steps
 	mov	_st_level_left,r0
 	mov	_st_level_left + 1,r1
 	sjmp	load_queue
@@ -856,7 +856,7 @@ load_arc:
 	mov	_st_af + 1,a
 	mov	_st_af + 2,a
 	mov	_st_af + 3,a
-	acall	enter_quadrant
+	lcall	enter_quadrant
 load_queue:
 	mov	a,r2
 	inc	a
@@ -917,10 +917,10 @@ load_run:
 ;  An arc enters quadrant st_seg.quadrant: its moves and its end.
 enter_quadrant:
 	mov	a,(_st_seg + 14)
-	acall	moves_of
+	lcall	moves_of
 	mov	_st_moves,a
 	mov	a,(_st_seg + 14)
-	acall	turns_of
+	lcall	turns_of
 	mov	c,A_0
 	mov	_st_end_x0,c
 	mov	c,A_1
