@@ -14,7 +14,7 @@
 ;  an arc's turn), and the common cases - a line or arc step at cruise, a
 ;  step on the ramp without a level change - run straight through.
 ;
-;  Everything else runs in bank 0: `setb rs0` selects bank 1.
+;  Bank 1 is the interrupt's own.
 
 	.module stepper_isr
 	.optsdcc -mmcs51 --model-small
@@ -90,7 +90,7 @@ SEG_SIZE = 22
 _stepper_isr:
 	push	ACC
 	push	PSW
-	setb	RS0
+	mov	PSW,#0x08		; bank 1 (s51 switches banks only on a byte write of PSW)
 	clr	TF2
 	; A closed limit switch at the end the machine heads for: no more pulses.
 	jb	LIM_X,00015$
