@@ -13,7 +13,7 @@ from pathlib import Path
 REPO_ROOT = Path(__file__).resolve().parent.parent
 FIRMWARE = REPO_ROOT / "firmware"
 
-DEFAULTS = {"INTERP": "pbp", "DRIVE": "stepdir", "ZAXIS": "0", "ISR": "c"}
+DEFAULTS = {"INTERP": "pbp", "DRIVE": "stepdir", "ZAXIS": "0"}
 
 
 # Options that are on/off flags: their directory name when on.

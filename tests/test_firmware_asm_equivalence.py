@@ -94,7 +94,7 @@ def board_events(vcd):
 @pytest.fixture(scope="module")
 def image():
     require_s51()
-    return mcu_image(ISR="asm")
+    return mcu_image()
 
 
 def run_board(image, lines, vcd, interrupt=None):

@@ -66,9 +66,9 @@ uint8_t hal_key_scan(void);
 #endif
 
 #ifdef STEPPER_ASM
-/* Build option ISR=asm (work in progress, see the Makefile): the step
- * interrupt is hal/mcs51/stepper_isr.asm, a transcription of core/stepper.c's,
- * on Timer 2 in 16-bit auto-reload: the
+/* The board's image: the step interrupt is hal/mcs51/stepper_isr.asm, the
+ * C one of core/stepper.c by hand (tests/test_firmware_asm_equivalence.py
+ * holds them equal pulse for pulse), on Timer 2 in 16-bit auto-reload: the
  * period sits in RCAP2 and the timer reloads it at each overflow, so a step
  * costs no reload instructions and the pulses keep to the overflows.  The
  * interrupt writes RCAP2 whenever the period changes: the overflow that

@@ -85,105 +85,101 @@ SEG_SIZE = 22
 	.area REG_BANK_1	(REL,OVR,DATA)
 	.ds 8
 
+;  st_port's direction bits as flags, for the pulse's position count.
+	.area BSEG    (BIT)
+st_xneg:
+	.ds	1
+st_yneg:
+	.ds	1
+
 	.area CSEG    (CODE)
 
+;  Rare cases of the code below, placed before it so that its branches
+;  reach them.
+limit_x:
+	mov	a,_st_port
+	jb	A_1,limit_stop
+	jb	LIM_Y,no_limit
+limit_y:
+	mov	a,_st_port
+	jnb	A_3,no_limit
+limit_stop:
+	clr	TR2
+	clr	TF2
+	setb	_rt_limit
+	ljmp	exit
+load:
+	ljmp	load_seg
+not_line:
+	ljmp	not_line_far
+run_holding:
+	ljmp	run_holding_far
+
 _stepper_isr:
-	push	ACC
 	push	PSW
 	mov	PSW,#0x08		; bank 1 (s51 switches banks only on a byte write of PSW)
+	xch	a,r7			; the interrupted code's A waits in r7
 	clr	TF2
 	; A closed limit switch at the end the machine heads for: no more pulses.
-	jb	LIM_X,00015$
-	ljmp	limit_x
-00015$:
-	jb	LIM_Y,00014$
-	ljmp	limit_y
-00014$:
+	jnb	LIM_X,limit_x
+	jnb	LIM_Y,limit_y
 no_limit:
 	; The step computed by the previous interrupt, its pulse high while the
-	; position counts.
+	; position counts (st_xneg, st_yneg: st_port's direction bits).
 	jnb	_st_pulse_x,pulse_not_x
 	orl	P1,#X_STEP
-	mov	a,_st_port
-	jb	A_1,x_minus
+	jb	st_xneg,x_minus
 	inc	_pos_x
 	mov	a,_pos_x
 	jnz	pulse_end
-	inc	_pos_x + 1
-	mov	a,_pos_x + 1
-	jnz	pulse_end
-	inc	_pos_x + 2
-	mov	a,_pos_x + 2
-	jnz	pulse_end
-	inc	_pos_x + 3
+	lcall	x_carry
 	sjmp	pulse_end
 x_minus:
 	mov	a,_pos_x
 	dec	_pos_x
 	jnz	pulse_end
-	mov	a,_pos_x + 1
-	dec	_pos_x + 1
-	jnz	pulse_end
-	mov	a,_pos_x + 2
-	dec	_pos_x + 2
-	jnz	pulse_end
-	dec	_pos_x + 3
+	lcall	x_borrow
 	sjmp	pulse_end
 pulse_not_x:
 	jnb	_st_pulse_y,pulse_done
 	orl	P1,#Y_STEP
-	mov	a,_st_port
-	jb	A_3,y_minus
+	jb	st_yneg,y_minus
 	inc	_pos_y
 	mov	a,_pos_y
 	jnz	pulse_end
-	inc	_pos_y + 1
-	mov	a,_pos_y + 1
-	jnz	pulse_end
-	inc	_pos_y + 2
-	mov	a,_pos_y + 2
-	jnz	pulse_end
-	inc	_pos_y + 3
+	lcall	y_carry
 	sjmp	pulse_end
 y_minus:
 	mov	a,_pos_y
 	dec	_pos_y
 	jnz	pulse_end
-	mov	a,_pos_y + 1
-	dec	_pos_y + 1
-	jnz	pulse_end
-	mov	a,_pos_y + 2
-	dec	_pos_y + 2
-	jnz	pulse_end
-	dec	_pos_y + 3
+	lcall	y_borrow
 pulse_end:
 	mov	P1,_st_port
 pulse_done:
-	jnb	_st_load,00013$
-	ljmp	load
-00013$:
+	jb	_st_load,load
 run:
 	jb	_st_hold,run_holding
-run_go:
-	jb	_st_line,00012$
-	ljmp	not_line
-00012$:
-	; Line: F >= 0 steps X and takes |dy| off F, F < 0 steps Y and adds |dx|.
+	jnb	_st_line,not_line
+	; Line: F >= 0 steps X and adds -|dy| (negated at the load), F < 0
+	; steps Y and adds |dx|.  (line_step below for a feed hold.)
 	mov	a,_st_lf + 1
 	jb	A_7,line_y
 	setb	_st_pulse_x
 	clr	_st_pulse_y
 	mov	a,_st_lf
-	clr	c
-	subb	a,(_st_seg + 6)
+	add	a,(_st_seg + 6)
 	mov	_st_lf,a
 	mov	a,_st_lf + 1
-	subb	a,(_st_seg + 6) + 1
+	addc	a,(_st_seg + 6) + 1
 	mov	_st_lf + 1,a
-	jb	_st_cruising,00011$
+	jnb	_st_cruising,count_near
+	; Cruising: the distance to the braking point counts down, one djnz
+	; (no hold: st_hold cannot change during the interrupt).
+	djnz	_st_cruise_lo,exit
+	sjmp	cruise_lo_out
+count_near:
 	ljmp	count
-00011$:
-	sjmp	cruise_step
 line_y:
 	clr	_st_pulse_x
 	setb	_st_pulse_y
@@ -193,56 +189,103 @@ line_y:
 	mov	a,_st_lf + 1
 	addc	a,(_st_seg + 4) + 1
 	mov	_st_lf + 1,a
-	jb	_st_cruising,00010$
-	ljmp	count
-00010$:
+	jnb	_st_cruising,count_near
+	djnz	_st_cruise_lo,exit
+	sjmp	cruise_lo_out
 cruise_step:
-	; Cruising: the distance to the braking point counts down, one djnz.
 	djnz	_st_cruise_lo,cruise_go
+cruise_lo_out:
 	mov	a,_st_cruise_hi
-	jz	cruise_out
+	jz	cruise_out_near
 	dec	_st_cruise_hi
 cruise_go:
-	jb	_st_hold,cruise_held
+	jb	_st_hold,cruise_held_near
 exit:
+	xch	a,r7
 	pop	PSW
-	pop	ACC
 	reti
+cruise_out_near:
+	ljmp	cruise_out
+cruise_held_near:
+	ljmp	cruise_held
 
-limit_x:
-	mov	a,_st_port
-	jb	A_1,limit_stop
-	sjmp	limit_y_test
-limit_y:
-	mov	a,_st_port
-limit_y_test:
-	jnb	LIM_Y,limit_y_closed
-	ljmp	no_limit
-limit_y_closed:
-	jb	A_3,00008$
-	ljmp	no_limit
-00008$:
-limit_stop:
-	clr	TR2
-	clr	TF2
-	setb	_rt_limit
-	sjmp	exit
+;  The upper bytes of the position, when the low byte carries or borrows.
+x_carry:
+	inc	_pos_x + 1
+	mov	a,_pos_x + 1
+	jnz	1$
+	inc	_pos_x + 2
+	mov	a,_pos_x + 2
+	jnz	1$
+	inc	_pos_x + 3
+1$:	ret
+x_borrow:
+	mov	a,_pos_x + 1
+	dec	_pos_x + 1
+	jnz	1$
+	mov	a,_pos_x + 2
+	dec	_pos_x + 2
+	jnz	1$
+	dec	_pos_x + 3
+1$:	ret
+y_carry:
+	inc	_pos_y + 1
+	mov	a,_pos_y + 1
+	jnz	1$
+	inc	_pos_y + 2
+	mov	a,_pos_y + 2
+	jnz	1$
+	inc	_pos_y + 3
+1$:	ret
+y_borrow:
+	mov	a,_pos_y + 1
+	dec	_pos_y + 1
+	jnz	1$
+	mov	a,_pos_y + 2
+	dec	_pos_y + 2
+	jnz	1$
+	dec	_pos_y + 3
+1$:	ret
 
-run_holding:
+;  A line step under a feed hold: as the fast path above, then the hold's
+;  part of cruise_step.
+line_held:
+	mov	a,_st_lf + 1
+	jb	A_7,1$
+	setb	_st_pulse_x
+	clr	_st_pulse_y
+	mov	a,(_st_seg + 6)
+	mov	r0,(_st_seg + 6) + 1
+	sjmp	2$
+1$:	clr	_st_pulse_x
+	setb	_st_pulse_y
+	mov	a,(_st_seg + 4)
+	mov	r0,(_st_seg + 4) + 1
+2$:	add	a,_st_lf
+	mov	_st_lf,a
+	mov	a,r0
+	addc	a,_st_lf + 1
+	mov	_st_lf + 1,a
+	jb	_st_cruising,cruise_step
+	ljmp	count
+
+run_holding_far:
 	; A feed hold at the start rate stops here (a dwell runs its time out).
 	mov	a,_st_level
 	add	a,#0xfe
-	jc	run_go
+	jc	run_held
 	mov	a,(_st_seg + 0)
 	cjne	a,#SEG_DWELL,pause
-	sjmp	run_go
+run_held:
+	jb	_st_line,line_held
+	ljmp	not_line_far
 pause:
 	clr	TR2
 	clr	TF2
 	setb	_st_paused
 	clr	_st_pulse_x
 	clr	_st_pulse_y
-	sjmp	exit
+	ljmp	exit
 
 cruise_out:
 	mov	(_st_seg + 12),_st_cruise_to
@@ -280,7 +323,7 @@ cruise_end:
 	mov	(_st_seg + 12),#1
 	ljmp	ramp
 
-not_line:
+not_line_far:
 	mov	a,(_st_seg + 0)
 	cjne	a,#SEG_DWELL,arc
 	; A dwell (also a pen's settle time) counts milliseconds.
@@ -292,9 +335,6 @@ not_line:
 	dec	(_st_seg + 12) + 1
 dwell_done:
 	ljmp	done
-
-load:
-	ljmp	load_seg
 
 arc:
 	; Arc: the move F's sign picks (st_moves: F >= 0 low nibble, F < 0 high).
@@ -346,6 +386,7 @@ arc_go:
 	cpl	a
 	mov	r1,a
 	orl	_st_port,#X_DIR
+	setb	st_xneg
 	sjmp	arc_f
 arc_xp:
 	mov	r0,(_st_seg + 4)
@@ -356,6 +397,7 @@ arc_xp:
 	inc	(_st_seg + 4) + 1
 arc_xp1:
 	anl	_st_port,#~X_DIR
+	clr	st_xneg
 	sjmp	arc_f
 arc_y:
 	clr	_st_pulse_x
@@ -374,6 +416,7 @@ arc_y:
 	cpl	a
 	mov	r1,a
 	orl	_st_port,#Y_DIR
+	setb	st_yneg
 	sjmp	arc_f
 arc_yp:
 	mov	r0,(_st_seg + 6)
@@ -384,6 +427,7 @@ arc_yp:
 	inc	(_st_seg + 6) + 1
 arc_yp1:
 	anl	_st_port,#~Y_DIR
+	clr	st_yneg
 arc_f:
 	; F += 2c + 1, c sign-extended to 32 bits
 	mov	a,r0
@@ -827,6 +871,17 @@ load_line_dirs:
 	anl	a,#~(X_DIR | Y_DIR)
 	orl	a,(_st_seg + 1)
 	mov	_st_port,a
+	mov	c,A_1
+	mov	st_xneg,c
+	mov	c,A_3
+	mov	st_yneg,c
+	clr	c			; the line adds -|dy| where the C takes |dy| off
+	clr	a
+	subb	a,(_st_seg + 6)
+	mov	(_st_seg + 6),a
+	clr	a
+	subb	a,(_st_seg + 6) + 1
+	mov	(_st_seg + 6) + 1,a
 	sjmp	load_queue
 load_not_line:
 	add	a,#(0x100 - SEG_PEN)
