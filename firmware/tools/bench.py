@@ -76,26 +76,33 @@ def isr_overhead(sym):
 
 
 def measure(sim, command, saturate):
-    """Run one command to its end with the VCD recording."""
+    """Run one command to its end with the VCD recording.  The command is
+    queued under a feed hold and released with `~`, so that it can be
+    changed in the queue before the motion starts (the simulator stops
+    long after it is asked to)."""
     offs = segment_offsets(s51sim.FIRMWARE / "core" / "segment.h")
-    sim.vcd_start()
     sim.go()
+    sim.write(b"!?")
+    sim.read_until(rb"<Hold[^\n]*\n")
     sim.write(command.encode() + b"\n")
     reply = sim.read_until(rb"(?:ok|err|rs)[^\r\n]*\r\n").decode().strip()
     if not reply.startswith("ok"):
         raise RuntimeError(f"{command!r}: {reply!r}")
     sim.stop()
     if saturate:
-        # The segment is loaded within 64 cycles of the reply; from the
-        # cruise level on the interrupt then reschedules itself at once.
-        sim.set_iram(sim.sym["_st_seg"] + offs["cruise_period"], [0xFF, 0xFF])
-        if isr_module(sim.sym) == "stepper_isr":
-            # The period lives in Timer 2's reload register: if the ramp
-            # has reached the cruise already, it has taken the old one.
-            sim.cmd("set memory sfr 0xca 0xff 0xff")
+        # A cruise period far below what the interrupt needs: from the
+        # cruise level on, it runs back to back.  In every queue slot
+        # (7 of 22 bytes, core/planner.h): the command's is one of them.
+        for slot in range(7):
+            addr = sim.sym["_queue"] + 22 * slot + offs["cruise_period"]
+            sim.cmd(f"set memory xram 0x{addr:x} 0xff 0xff")
     # The end of the motion: the interrupt finds the queue empty and stops.
     stop, = sim.sym.instructions(isr_module(sim.sym), "_stepper_isr", "clr", "_st_running")
-    sim.run_to(stop, timeout=300)
+    sim.cmd(f"tbreak 0x{stop:x}")
+    sim.vcd_start()
+    sim.go()
+    sim.write(b"~")
+    sim.wait_stop(timeout=300)
     sim.vcd_stop()
 
 

@@ -46,7 +46,7 @@ class Symbols:
         base = Path(base)
         self.addr = {}
         for line in open(base.with_suffix(".map")):
-            m = re.match(r"\s*(?:C:\s+)?([0-9A-F]{8})\s+(_\w+)\s+\w+\s*$", line)
+            m = re.match(r"\s*(?:[A-Z]:\s+)?([0-9A-F]{8})\s+(_\w+)\s+\w+\s*$", line)
             if m:
                 self.addr.setdefault(m.group(2), int(m.group(1), 16))
         self.rst = {}
