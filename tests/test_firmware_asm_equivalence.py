@@ -149,21 +149,22 @@ def test_pulse_for_pulse(image, tmp_path, batch):
     w = [e[2] for e in want if e[0] != "pen"][1:]
     g = [e[2] for e in got if e[0] != "pen"][1:]
     assert len(g) == len(w)
-    # The board's pulse times against the host's schedule, from the first
-    # pulse on: within the latency, except one pulse right after an
-    # interrupt that loaded a segment and ran longer than a period (the
-    # auto-reloaded timer keeps the schedule, so the next one is on time).
-    error, late, worst = 0.0, 0, 0.0
-    for k, (a, b) in enumerate(zip(g, w)):
+    # The board's pulse times against the host's schedule: within the
+    # latency, except where one interrupt ran longer than a period (a
+    # segment load, a ramp level change at a high rate): that pulse and the
+    # next may be late, and then the pulses are back on the schedule (the
+    # auto-reloaded timer does not drift).
+    errors, error = [], 0.0
+    for a, b in zip(g, w):
         error += a - b
-        worst = max(worst, abs(error))
-        if abs(error) > LATENCY:
-            late += 1
-            assert error <= LOAD_OVERRUN, (k, error)
-            assert k + 1 < len(g) and abs(error + g[k + 1] - w[k + 1]) <= LATENCY, (k, error)
+        errors.append(error)
+    late = [k for k, e in enumerate(errors) if abs(e) > LATENCY]
+    for k in late:
+        assert abs(errors[k]) <= LOAD_OVERRUN, (k, errors[k])
+        assert any(abs(e) <= LATENCY for e in errors[k + 1:k + 3]) or k + 1 >= len(errors), (k, errors[k:k + 3])
+    worst = max(abs(e) for e in errors)
     print(f"\n{batch}: {len(g) + 1} steps, largest deviation from the schedule "
-          f"{worst:.1f} cycles, {late} pulses late after a segment load")
-    assert late <= len([l for l in lines if not l.startswith("$")])
+          f"{worst:.1f} cycles, {len(late)} pulses late after a long interrupt")
 
 
 @pytest.mark.parametrize("typed", [[b"!", b"~"], [b"\x1b"]], ids=["hold", "estop"])

@@ -235,6 +235,7 @@ void stepper_zero(void)
 
 void stepper_abort(void)
 {
+    HAL_STEPPER_ABORT();
     st_load = 1;
     st_pulse_x = 0;
     st_pulse_y = 0;

@@ -74,6 +74,8 @@ uint8_t hal_key_scan(void);
  * interrupt writes RCAP2 whenever the period changes: the overflow that
  * follows takes it, which is the schedule HAL_TIMER_ADVANCE gives. */
 #define HAL_STEPPER_ISR_EXTERNAL 1
+extern volatile __bit st_fast;      /* the interrupt's fast path: a line cruising */
+#define HAL_STEPPER_ABORT() (st_fast = 0)
 __sfr16 __at(0xCBCA) RCAP2;
 __sfr16 __at(0xCDCC) TMR2;
 #define HAL_STEP_PERIOD RCAP2
@@ -133,6 +135,9 @@ __sfr16 __at(0x8C8A) TMR0;
         TR0 = 1;                                                             \
     } while (0)
 #define HAL_TIMER_HALT() do { TR0 = 0; TF0 = 0; } while (0)
+#endif
+#ifndef HAL_STEPPER_ABORT
+#define HAL_STEPPER_ABORT()
 #endif
 #define HAL_SEGMENT_STARTED(s)
 #define HAL_CRITICAL_BEGIN() (EA = 0)

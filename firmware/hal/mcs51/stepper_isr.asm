@@ -85,8 +85,12 @@ SEG_SIZE = 22
 	.area REG_BANK_1	(REL,OVR,DATA)
 	.ds 8
 
-;  st_port's direction bits as flags, for the pulse's position count.
+;  st_port's direction bits as flags, for the pulse's position count; and
+;  st_fast, set while a line cruises and no segment is to be loaded (never
+;  with st_load: HAL_STEPPER_ABORT clears it where stepper.c sets st_load).
 	.area BSEG    (BIT)
+_st_fast::
+	.ds	1
 st_xneg:
 	.ds	1
 st_yneg:
@@ -108,12 +112,6 @@ limit_stop:
 	clr	TF2
 	setb	_rt_limit
 	ljmp	exit
-load:
-	ljmp	load_seg
-not_line:
-	ljmp	not_line_far
-run_holding:
-	ljmp	run_holding_far
 
 _stepper_isr:
 	push	PSW
@@ -132,13 +130,15 @@ no_limit:
 	inc	_pos_x
 	mov	a,_pos_x
 	jnz	pulse_end
-	lcall	x_carry
+	mov	r0,#(_pos_x + 1)
+	lcall	carry
 	sjmp	pulse_end
 x_minus:
 	mov	a,_pos_x
 	dec	_pos_x
 	jnz	pulse_end
-	lcall	x_borrow
+	mov	r0,#(_pos_x + 1)
+	lcall	borrow
 	sjmp	pulse_end
 pulse_not_x:
 	jnb	_st_pulse_y,pulse_done
@@ -147,22 +147,23 @@ pulse_not_x:
 	inc	_pos_y
 	mov	a,_pos_y
 	jnz	pulse_end
-	lcall	y_carry
+	mov	r0,#(_pos_y + 1)
+	lcall	carry
 	sjmp	pulse_end
 y_minus:
 	mov	a,_pos_y
 	dec	_pos_y
 	jnz	pulse_end
-	lcall	y_borrow
+	mov	r0,#(_pos_y + 1)
+	lcall	borrow
 pulse_end:
 	mov	P1,_st_port
 pulse_done:
-	jb	_st_load,load
-run:
+	; st_fast: a line at cruise (nor a segment to load: see below).
+	jnb	_st_fast,not_fast
 	jb	_st_hold,run_holding
-	jnb	_st_line,not_line
 	; Line: F >= 0 steps X and adds -|dy| (negated at the load), F < 0
-	; steps Y and adds |dx|.  (line_step below for a feed hold.)
+	; steps Y and adds |dx| (line_step below, in full).
 	mov	a,_st_lf + 1
 	jb	A_7,line_y
 	setb	_st_pulse_x
@@ -173,13 +174,10 @@ run:
 	mov	a,_st_lf + 1
 	addc	a,(_st_seg + 6) + 1
 	mov	_st_lf + 1,a
-	jnb	_st_cruising,count_near
-	; Cruising: the distance to the braking point counts down, one djnz
-	; (no hold: st_hold cannot change during the interrupt).
+	; The distance to the braking point counts down, one djnz (and no
+	; hold: st_hold cannot change during the interrupt).
 	djnz	_st_cruise_lo,exit
 	sjmp	cruise_lo_out
-count_near:
-	ljmp	count
 line_y:
 	clr	_st_pulse_x
 	setb	_st_pulse_y
@@ -189,9 +187,14 @@ line_y:
 	mov	a,_st_lf + 1
 	addc	a,(_st_seg + 4) + 1
 	mov	_st_lf + 1,a
-	jnb	_st_cruising,count_near
 	djnz	_st_cruise_lo,exit
 	sjmp	cruise_lo_out
+not_fast:
+	jb	_st_load,load
+run:
+	jb	_st_hold,run_holding
+	jnb	_st_line,not_line
+	ljmp	line_step
 cruise_step:
 	djnz	_st_cruise_lo,cruise_go
 cruise_lo_out:
@@ -206,50 +209,37 @@ exit:
 	reti
 cruise_out_near:
 	ljmp	cruise_out
+load:
+	ljmp	load_seg
+not_line:
+	ljmp	not_line_far
+run_holding:
+	ljmp	run_holding_far
 cruise_held_near:
 	ljmp	cruise_held
 
-;  The upper bytes of the position, when the low byte carries or borrows.
-x_carry:
-	inc	_pos_x + 1
-	mov	a,_pos_x + 1
-	jnz	1$
-	inc	_pos_x + 2
-	mov	a,_pos_x + 2
-	jnz	1$
-	inc	_pos_x + 3
+;  The upper bytes of the position at r0, when the low byte carries or borrows.
+carry:
+	inc	@r0
+	cjne	@r0,#0,1$
+	inc	r0
+	inc	@r0
+	cjne	@r0,#0,1$
+	inc	r0
+	inc	@r0
 1$:	ret
-x_borrow:
-	mov	a,_pos_x + 1
-	dec	_pos_x + 1
-	jnz	1$
-	mov	a,_pos_x + 2
-	dec	_pos_x + 2
-	jnz	1$
-	dec	_pos_x + 3
-1$:	ret
-y_carry:
-	inc	_pos_y + 1
-	mov	a,_pos_y + 1
-	jnz	1$
-	inc	_pos_y + 2
-	mov	a,_pos_y + 2
-	jnz	1$
-	inc	_pos_y + 3
-1$:	ret
-y_borrow:
-	mov	a,_pos_y + 1
-	dec	_pos_y + 1
-	jnz	1$
-	mov	a,_pos_y + 2
-	dec	_pos_y + 2
-	jnz	1$
-	dec	_pos_y + 3
+borrow:
+	dec	@r0
+	cjne	@r0,#0xff,1$
+	inc	r0
+	dec	@r0
+	cjne	@r0,#0xff,1$
+	inc	r0
+	dec	@r0
 1$:	ret
 
-;  A line step under a feed hold: as the fast path above, then the hold's
-;  part of cruise_step.
-line_held:
+;  A line step, as the fast path above does it at cruise.
+line_step:
 	mov	a,_st_lf + 1
 	jb	A_7,1$
 	setb	_st_pulse_x
@@ -277,7 +267,7 @@ run_holding_far:
 	mov	a,(_st_seg + 0)
 	cjne	a,#SEG_DWELL,pause
 run_held:
-	jb	_st_line,line_held
+	jb	_st_line,line_step
 	ljmp	not_line_far
 pause:
 	clr	TR2
@@ -521,62 +511,37 @@ turn:
 	djnz	(_st_seg + 15),in_quadrant
 	; Final quadrant: the remaining count is now exact, and the moves
 	; towards the end are known.
-	clr	c
-	mov	a,(_st_seg + 8)
-	subb	a,(_st_seg + 4)
+	mov	r0,#(_st_seg + 8)
+	mov	r1,#(_st_seg + 4)
+	lcall	end_diff		; c - a
+	mov	r6,#0
+	jc	1$
+	jz	2$
+	mov	r6,#MV_XP
+	sjmp	2$
+1$:	mov	r6,#MV_XN
+2$:	mov	a,r2
 	mov	r4,a
-	mov	a,(_st_seg + 8) + 1
-	subb	a,(_st_seg + 4) + 1
+	mov	a,r3
 	mov	r5,a
-	mov	r2,#0
-	jnb	A_7,turn_xpos
-	mov	r2,#MV_XN
-	clr	c
-	clr	a
-	subb	a,r4
-	mov	r4,a
-	clr	a
-	subb	a,r5
-	mov	r5,a
-	sjmp	turn_y
-turn_xpos:
-	orl	a,r4
-	jz	turn_y
-	mov	r2,#MV_XP
-turn_y:
-	clr	c
-	mov	a,(_st_seg + 10)
-	subb	a,(_st_seg + 6)
-	mov	r0,a
-	mov	a,(_st_seg + 10) + 1
-	subb	a,(_st_seg + 6) + 1
-	mov	r1,a
-	jnb	A_7,turn_ypos
-	mov	a,r2
-	orl	a,#MV_YN
-	mov	r2,a
-	clr	c
-	clr	a
-	subb	a,r0
-	mov	r0,a
-	clr	a
-	subb	a,r1
-	mov	r1,a
-	sjmp	turn_steps
-turn_ypos:
-	orl	a,r0
+	mov	r0,#(_st_seg + 10)
+	mov	r1,#(_st_seg + 6)
+	lcall	end_diff		; d - b
+	jc	3$
 	jz	turn_steps
-	mov	a,r2
-	orl	a,#MV_YP
-	mov	r2,a
+	mov	a,#MV_YP
+	sjmp	4$
+3$:	mov	a,#MV_YN
+4$:	orl	a,r6
+	mov	r6,a
 turn_steps:
 	mov	a,r4
-	add	a,r0
+	add	a,r2
 	mov	(_st_seg + 12),a
 	mov	a,r5
-	addc	a,r1
+	addc	a,r3
 	mov	(_st_seg + 12) + 1,a
-	mov	(_st_seg + 1),r2
+	mov	(_st_seg + 1),r6
 	sjmp	ramp
 
 count:
@@ -588,6 +553,7 @@ count:
 ramp:
 	; Brake to the exit level in time, else climb to the cruise level.
 	clr	_st_cruising
+	clr	_st_fast
 	mov	a,_st_level
 	add	a,#0xfe
 	jnc	ramp_not_brake		; level 0: never brakes
@@ -653,6 +619,7 @@ done:
 	orl	a,(_st_seg + 12) + 1
 	jnz	done_exit
 	setb	_st_load
+	clr	_st_fast
 done_exit:
 	ljmp	exit
 
@@ -687,6 +654,8 @@ cruise_set:
 	addc	a,#0xff
 	mov	_st_cruise_hi,a
 	setb	_st_cruising
+	mov	c,_st_line
+	mov	_st_fast,c
 	sjmp	done
 
 ;  hold steps of level A: ramp_hold[A] * setting[SET_ACCEL] into r1:r0
@@ -954,6 +923,7 @@ load_brake:
 	addc	a,_st_level_left + 1
 	mov	_st_brake_at + 1,a
 	clr	_st_cruising
+	clr	_st_fast
 	setb	_st_stale
 	pop	DPH
 	pop	DPL
@@ -968,6 +938,32 @@ load_brake:
 load_run:
 	clr	_st_load
 	ljmp	run
+
+;  r3:r2 = |(@r0) - (@r1)|, of two words in internal RAM whose difference
+;  fits in 16 bits; C set if it is negative, else A = 0 if it is zero.
+end_diff:
+	clr	c
+	mov	a,@r0
+	subb	a,@r1
+	mov	r2,a
+	inc	r0
+	inc	r1
+	mov	a,@r0
+	subb	a,@r1
+	mov	r3,a
+	jnb	A_7,1$
+	clr	c
+	clr	a
+	subb	a,r2
+	mov	r2,a
+	clr	a
+	subb	a,r3
+	mov	r3,a
+	setb	c
+	ret
+1$:	orl	a,r2
+	clr	c
+	ret
 
 ;  An arc enters quadrant st_seg.quadrant: its moves and its end.
 enter_quadrant:
