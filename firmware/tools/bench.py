@@ -60,6 +60,8 @@ def isr_overhead(sym):
     instructions up to and including `mov psw,#0x08`, and those after
     `pop psw` up to and including `reti`."""
     module = isr_module(sym)
+    if module == "stepper_isr":
+        return None
     lines = sym.rst[module]
     start = next(i for i, l in enumerate(lines) if re.match(r"\s+[0-9A-F]{6}\s+\d+\s+_stepper_isr:", l))
     code = []
@@ -117,7 +119,7 @@ def analyse(vcd_path, overhead):
     intervals = [s51sim.cycles(b - a) for a, b in zip(pulses, pulses[1:])]
     isr = []
     start = None
-    for t, v in ev["PSW.3"]:
+    for t, v in ev["PSW.3"] if overhead is not None else ():
         if v and start is None:
             start = t
         elif not v and start is not None:
@@ -157,9 +159,10 @@ def main(argv):
                 print(f"{name}: {command!r}, {label}")
                 print(f"  steps recorded      {len(intervals) + 1}")
                 print(f"  cycles per step     {summary(intervals)}")
-                print(f"  ISR cycles per step {summary(isr)}")
-                common = collections.Counter(isr).most_common(8)
-                print("  ISR cycles, most frequent: " + ", ".join(f"{c} ({n}x)" for c, n in common))
+                if isr:
+                    print(f"  ISR cycles per step {summary(isr)}")
+                    common = collections.Counter(isr).most_common(8)
+                    print("  ISR cycles, most frequent: " + ", ".join(f"{c} ({n}x)" for c, n in common))
     print()
     rates = {}
     for name in ("line", "arc"):
@@ -171,9 +174,9 @@ def main(argv):
         cruise_isr = isr[n // 4:3 * n // 4]
         per_step = statistics.mean(cruise)
         rates[name] = int(CYCLES_PER_S / per_step)
-        print(f"{name} at saturation, cruise: {per_step:.1f} machine cycles per step "
-              f"(ISR {min(cruise_isr)}..{max(cruise_isr)} cycles per step, "
-              f"{min(isr)}..{max(isr)} over the whole segment incl. ramps and segment load)")
+        detail = (f" (ISR {min(cruise_isr)}..{max(cruise_isr)} cycles per step, "
+                  f"{min(isr)}..{max(isr)} over the whole segment incl. ramps and segment load)") if isr else ""
+        print(f"{name} at saturation, cruise: {per_step:.1f} machine cycles per step{detail}")
     for name in ("line", "arc"):
         print(f"{name}: {rates[name]} steps/s")
     return 0

@@ -8,8 +8,9 @@
 ;  step in s51.  The state is stepper.c's (shared through
 ;  HAL_STEPPER_ISR_EXTERNAL), the period lives in RCAP2 (HAL_STEP_PERIOD).
 ;
-;  What makes it fast: no reload instructions (auto-reload), bank 1 for
-;  scratch with A parked in its r7 instead of pushed, B and DPTR saved only
+;  What makes it fast: no reload instructions (auto-reload), A parked in
+;  bank 1's r7 instead of pushed, bank 1 selected for scratch registers
+;  only off the cruising line's path, B and DPTR saved only
 ;  on the paths that use them (segment load, a level change, a new period,
 ;  an arc's turn), and the common cases - a line or arc step at cruise, a
 ;  step on the ramp without a level change - run straight through.
@@ -34,6 +35,9 @@ TR2	= 0xca
 LIM_X	= 0x95			; P1.5, X limit at -X, closed = 0
 LIM_Y	= 0x97			; P1.7, Y limit at -Y
 F0	= 0xd5			; PSW.5, restored on exit
+AR7	= 0x0f			; r7 of bank 1
+BANK1	= 0x08			; PSW selecting bank 1 (s51 switches banks only on
+				; a byte write of PSW, not on setb RS0)
 A_0	= 0xe0
 A_1	= 0xe1
 A_3	= 0xe3
@@ -115,8 +119,7 @@ limit_stop:
 
 _stepper_isr:
 	push	PSW
-	mov	PSW,#0x08		; bank 1 (s51 switches banks only on a byte write of PSW)
-	xch	a,r7			; the interrupted code's A waits in r7
+	xch	a,AR7			; the interrupted code's A waits in bank 1's r7
 	clr	TF2
 	; A closed limit switch at the end the machine heads for: no more pulses.
 	jnb	LIM_X,limit_x
@@ -130,6 +133,7 @@ no_limit:
 	inc	_pos_x
 	mov	a,_pos_x
 	jnz	pulse_end
+	mov	PSW,#BANK1
 	mov	r0,#(_pos_x + 1)
 	lcall	carry
 	sjmp	pulse_end
@@ -137,6 +141,7 @@ x_minus:
 	mov	a,_pos_x
 	dec	_pos_x
 	jnz	pulse_end
+	mov	PSW,#BANK1
 	mov	r0,#(_pos_x + 1)
 	lcall	borrow
 	sjmp	pulse_end
@@ -147,6 +152,7 @@ pulse_not_x:
 	inc	_pos_y
 	mov	a,_pos_y
 	jnz	pulse_end
+	mov	PSW,#BANK1
 	mov	r0,#(_pos_y + 1)
 	lcall	carry
 	sjmp	pulse_end
@@ -154,6 +160,7 @@ y_minus:
 	mov	a,_pos_y
 	dec	_pos_y
 	jnz	pulse_end
+	mov	PSW,#BANK1
 	mov	r0,#(_pos_y + 1)
 	lcall	borrow
 pulse_end:
@@ -190,6 +197,7 @@ line_y:
 	djnz	_st_cruise_lo,exit
 	sjmp	cruise_lo_out
 not_fast:
+	mov	PSW,#BANK1
 	jb	_st_load,load
 run:
 	jb	_st_hold,run_holding
@@ -198,13 +206,14 @@ run:
 cruise_step:
 	djnz	_st_cruise_lo,cruise_go
 cruise_lo_out:
+	mov	PSW,#BANK1
 	mov	a,_st_cruise_hi
 	jz	cruise_out_near
 	dec	_st_cruise_hi
 cruise_go:
 	jb	_st_hold,cruise_held_near
 exit:
-	xch	a,r7
+	xch	a,AR7
 	pop	PSW
 	reti
 cruise_out_near:
@@ -260,6 +269,7 @@ line_step:
 	ljmp	count
 
 run_holding_far:
+	mov	PSW,#BANK1
 	; A feed hold at the start rate stops here (a dwell runs its time out).
 	mov	a,_st_level
 	add	a,#0xfe
