@@ -128,6 +128,36 @@ def analyse(vcd_path, overhead):
     return [round(x) for x in intervals], [round(x) for x in isr]
 
 
+def host_schedule(library, command):
+    """The step intervals of the host build of the core for the command,
+    queued under a feed hold as measure() queues it: the ramp table's
+    schedule, what the board should keep to."""
+    sys.path.insert(0, str(s51sim.FIRMWARE.parent / "ros_ws" / "src" / "plotter_bridge"))
+    from plotter_bridge.sim.firmware_core import FirmwareCore
+    core = FirmwareCore(library)
+    try:
+        core.receive(b"!")
+        core.poll(3)
+        core.receive(command.encode() + b"\n")
+        core.poll(5)
+        core.receive(b"~")
+        out, since = [], 0
+        x1, y1 = core.position
+        while True:
+            core.poll()
+            if not core.timer_running():
+                return out[1:]
+            since += core.period()
+            core.tick()
+            x0, y0 = x1, y1
+            x1, y1 = core.position
+            if (x1, y1) != (x0, y0):
+                out.append(since)
+                since = 0
+    finally:
+        core.close()
+
+
 def summary(values):
     return (f"min {min(values)}  median {statistics.median(values):g}  "
             f"mean {statistics.mean(values):.1f}  max {max(values)}  (n={len(values)})")
@@ -163,6 +193,21 @@ def main(argv):
                     print(f"  ISR cycles per step {summary(isr)}")
                     common = collections.Counter(isr).most_common(8)
                     print("  ISR cycles, most frequent: " + ", ".join(f"{c} ({n}x)" for c, n in common))
+    print()
+    library = base.parent / "libplotter_core.so"
+    for name, command in cases:
+        # The ramp as its table says, at every rate up to the top one: each
+        # step as commanded (accelerating, cruising at the top rate,
+        # braking) no slower than the host core's schedule, beyond the
+        # interrupt latency.
+        got = results[(name, False)][0]
+        want = host_schedule(library, command)
+        slow = [(k, g - w) for k, (g, w) in enumerate(zip(got, want)) if g > w + 8]
+        ramp = [k for k, w in enumerate(want) if w > min(want)]
+        print(f"{name}: {len(slow)} of {len(want)} steps as commanded slower than the table "
+              f"(by up to {max((d for _, d in slow), default=0)} cycles; "
+              f"{len([k for k, _ in slow if k in set(ramp)])} of them on the ramps, "
+              f"steps {len(got) + 1} vs {len(want) + 1} in the table)")
     print()
     rates = {}
     for name in ("line", "arc"):

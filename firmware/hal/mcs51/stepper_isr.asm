@@ -202,7 +202,7 @@ not_fast:
 run:
 	jb	_st_hold,run_holding
 	jnb	_st_line,not_line
-	ljmp	line_step
+	sjmp	line_step
 cruise_step:
 	djnz	_st_cruise_lo,cruise_go
 cruise_lo_out:
@@ -217,15 +217,15 @@ exit:
 	pop	PSW
 	reti
 cruise_out_near:
-	ljmp	cruise_out
+	sjmp	cruise_out
 load:
 	ljmp	load_seg
 not_line:
 	ljmp	not_line_far
 run_holding:
-	ljmp	run_holding_far
+	sjmp	run_holding_far
 cruise_held_near:
-	ljmp	cruise_held
+	sjmp	cruise_held
 
 ;  The upper bytes of the position at r0, when the low byte carries or borrows.
 carry:
@@ -278,14 +278,14 @@ run_holding_far:
 	cjne	a,#SEG_DWELL,pause
 run_held:
 	jb	_st_line,line_step
-	ljmp	not_line_far
+	sjmp	not_line_far
 pause:
 	clr	TR2
 	clr	TF2
 	setb	_st_paused
 	clr	_st_pulse_x
 	clr	_st_pulse_y
-	ljmp	exit
+	sjmp	exit
 
 cruise_out:
 	mov	(_st_seg + 12),_st_cruise_to
@@ -308,20 +308,14 @@ cruise_held:
 	mov	(_st_seg + 12) + 1,a
 cruise_end:
 	; An arc's estimate runs out at its end, not before.
-	jnb	_st_line,00007$
-	ljmp	ramp
-00007$:
+	jb	_st_line,1$
 	mov	a,(_st_seg + 15)
-	jnz	00006$
-	ljmp	ramp
-00006$:
+	jz	1$
 	mov	a,(_st_seg + 12)
 	orl	a,(_st_seg + 12) + 1
-	jz	00005$
-	ljmp	ramp
-00005$:
+	jnz	1$
 	mov	(_st_seg + 12),#1
-	ljmp	ramp
+1$:	ljmp	ramp
 
 not_line_far:
 	mov	a,(_st_seg + 0)
@@ -483,14 +477,11 @@ in_quadrant:
 	ljmp	cruise_step
 in_quadrant_count:
 	mov	a,(_st_seg + 12) + 1
-	jz	00004$
-	ljmp	count
-00004$:
+	jnz	1$
 	mov	a,(_st_seg + 12)
-	cjne	a,#1,00003$
-	ljmp	ramp			; an estimate: the count runs out at the end, not before
-00003$:
-	ljmp	count
+	cjne	a,#1,1$
+	sjmp	ramp			; an estimate: the count runs out at the end, not before
+1$:	ljmp	count
 arc_final:
 	; An axis that reached its end coordinate moves no more.
 	jnb	_st_pulse_x,arc_final_y
@@ -607,7 +598,7 @@ ramp_ll:
 	mov	a,_st_level_left
 	orl	a,_st_level_left + 1
 	jnz	ramp_stale
-	ljmp	level_change
+	sjmp	level_change
 ramp_stale:
 	jnb	_st_stale,done
 period_new:
