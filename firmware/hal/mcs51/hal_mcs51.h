@@ -74,8 +74,9 @@ uint8_t hal_key_scan(void);
  * interrupt writes RCAP2 whenever the period changes: the overflow that
  * follows takes it, which is the schedule HAL_TIMER_ADVANCE gives. */
 #define HAL_STEPPER_ISR_EXTERNAL 1
-extern volatile __bit st_fast;      /* the interrupt's fast path: a line cruising */
-#define HAL_STEPPER_ABORT() (st_fast = 0)
+extern volatile __bit st_fast;      /* the interrupt's fast paths: a line cruising, */
+extern volatile __bit st_rampfast;  /* a line on the ramp */
+#define HAL_STEPPER_ABORT() (st_fast = 0, st_rampfast = 0)
 __sfr16 __at(0xCBCA) RCAP2;
 __sfr16 __at(0xCDCC) TMR2;
 #define HAL_STEP_PERIOD RCAP2

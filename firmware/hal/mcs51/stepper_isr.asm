@@ -90,10 +90,13 @@ SEG_SIZE = 22
 	.ds 8
 
 ;  st_port's direction bits as flags, for the pulse's position count; and
-;  st_fast, set while a line cruises and no segment is to be loaded (never
-;  with st_load: HAL_STEPPER_ABORT clears it where stepper.c sets st_load).
+;  st_fast, set while a line cruises and no segment is to be loaded, and
+;  st_rampfast (see not_fast): never with st_load (HAL_STEPPER_ABORT clears
+;  them where stepper.c sets st_load).
 	.area BSEG    (BIT)
 _st_fast::
+	.ds	1
+_st_rampfast::
 	.ds	1
 st_xneg:
 	.ds	1
@@ -197,12 +200,25 @@ line_y:
 	djnz	_st_cruise_lo,exit
 	sjmp	cruise_lo_out
 not_fast:
+	; st_rampfast: a line on the ramp whose last step changed no level.
+	; Its brake-or-climb choice stands (steps and brake_at both count down
+	; by one a step, the levels and the hold stay) until the level's
+	; steps run out: then, or in a hold, the full path.
+	jnb	_st_rampfast,not_ramp_fast
+	jb	_st_hold,not_ramp_fast
+	mov	a,_st_level_left + 1
+	jnz	ramp_fast
+	mov	a,_st_level_left
+	add	a,#0xfe
+	jc	ramp_fast
+not_ramp_fast:
+	clr	_st_rampfast
 	mov	PSW,#BANK1
 	jb	_st_load,load
 run:
 	jb	_st_hold,run_holding
 	jnb	_st_line,not_line
-	sjmp	line_step
+	ljmp	line_step
 cruise_step:
 	djnz	_st_cruise_lo,cruise_go
 cruise_lo_out:
@@ -217,15 +233,15 @@ exit:
 	pop	PSW
 	reti
 cruise_out_near:
-	sjmp	cruise_out
+	ljmp	cruise_out
 load:
 	ljmp	load_seg
 not_line:
 	ljmp	not_line_far
 run_holding:
-	sjmp	run_holding_far
+	ljmp	run_holding_far
 cruise_held_near:
-	sjmp	cruise_held
+	ljmp	cruise_held
 
 ;  The upper bytes of the position at r0, when the low byte carries or borrows.
 carry:
@@ -247,26 +263,54 @@ borrow:
 	dec	@r0
 1$:	ret
 
-;  A line step, as the fast path above does it at cruise.
+;  A line step on the ramp with its choice made (st_rampfast): the line
+;  step, count, ramp and done of the full path without the choice.
+ramp_fast:
 line_step:
+	; A line step; with st_rampfast (cleared on the way to the full path)
+	; also its count and ramp, the choice made.
 	mov	a,_st_lf + 1
 	jb	A_7,1$
 	setb	_st_pulse_x
 	clr	_st_pulse_y
-	mov	a,(_st_seg + 6)
-	mov	r0,(_st_seg + 6) + 1
+	mov	a,_st_lf
+	add	a,(_st_seg + 6)
+	mov	_st_lf,a
+	mov	a,_st_lf + 1
+	addc	a,(_st_seg + 6) + 1
 	sjmp	2$
 1$:	clr	_st_pulse_x
 	setb	_st_pulse_y
-	mov	a,(_st_seg + 4)
-	mov	r0,(_st_seg + 4) + 1
-2$:	add	a,_st_lf
+	mov	a,_st_lf
+	add	a,(_st_seg + 4)
 	mov	_st_lf,a
-	mov	a,r0
-	addc	a,_st_lf + 1
-	mov	_st_lf + 1,a
-	jb	_st_cruising,cruise_step
-	ljmp	count
+	mov	a,_st_lf + 1
+	addc	a,(_st_seg + 4) + 1
+2$:	mov	_st_lf + 1,a
+	jnb	_st_rampfast,8$
+	mov	a,(_st_seg + 12)
+	dec	(_st_seg + 12)
+	jnz	3$
+	dec	(_st_seg + 12) + 1
+3$:	mov	a,_st_brake_at
+	dec	_st_brake_at
+	jnz	4$
+	dec	_st_brake_at + 1
+4$:	mov	a,_st_level_left
+	dec	_st_level_left
+	jnz	5$
+	dec	_st_level_left + 1
+5$:	mov	a,(_st_seg + 12)
+	orl	a,(_st_seg + 12) + 1
+	jnz	6$
+	setb	_st_load
+	clr	_st_rampfast
+6$:	xch	a,AR7
+	pop	PSW
+	reti
+8$:	jnb	_st_cruising,7$
+	ljmp	cruise_step
+7$:	ljmp	count
 
 run_holding_far:
 	mov	PSW,#BANK1
@@ -285,7 +329,7 @@ pause:
 	setb	_st_paused
 	clr	_st_pulse_x
 	clr	_st_pulse_y
-	sjmp	exit
+	ljmp	exit
 
 cruise_out:
 	mov	(_st_seg + 12),_st_cruise_to
@@ -555,6 +599,7 @@ ramp:
 	; Brake to the exit level in time, else climb to the cruise level.
 	clr	_st_cruising
 	clr	_st_fast
+	clr	_st_rampfast
 	mov	a,_st_level
 	add	a,#0xfe
 	jnc	ramp_not_brake		; level 0: never brakes
@@ -597,8 +642,10 @@ ramp_bd:
 ramp_ll:
 	mov	a,_st_level_left
 	orl	a,_st_level_left + 1
-	jnz	ramp_stale
-	sjmp	level_change
+	jz	level_change
+	jb	_st_hold,ramp_stale
+	mov	c,_st_line
+	mov	_st_rampfast,c
 ramp_stale:
 	jnb	_st_stale,done
 period_new:
@@ -621,6 +668,7 @@ done:
 	jnz	done_exit
 	setb	_st_load
 	clr	_st_fast
+	clr	_st_rampfast
 done_exit:
 	ljmp	exit
 
@@ -925,6 +973,7 @@ load_brake:
 	mov	_st_brake_at + 1,a
 	clr	_st_cruising
 	clr	_st_fast
+	clr	_st_rampfast
 	setb	_st_stale
 	pop	DPH
 	pop	DPL
