@@ -10,12 +10,11 @@
 ;
 ;  What makes it fast: no reload instructions (auto-reload), A parked in
 ;  bank 1's r7 instead of pushed, bank 1 selected for scratch registers
-;  only off the cruising line's path, B and DPTR saved only
-;  on the paths that use them (segment load, a level change, a new period,
-;  an arc's turn), and the common cases - a line or arc step at cruise, a
-;  step on the ramp without a level change - run straight through.
-;
-;  Bank 1 is the interrupt's own.
+;  only off the cruising line's path, B and DPTR saved only on the paths
+;  that use them (a segment load, a level change, a new period), and the
+;  commonest cases - a line at cruise (st_fast), a line on the ramp between
+;  level changes (st_rampfast) - run straight through.  Arcs take the
+;  path of the C, transcribed.
 
 	.module stepper_isr
 	.optsdcc -mmcs51 --model-small
@@ -23,7 +22,6 @@
 ;  SFRs and bits
 P1	= 0x90
 PSW	= 0xd0
-RS0	= 0xd3
 ACC	= 0xe0
 Bs	= 0xf0
 DPL	= 0x82
