@@ -24,9 +24,10 @@ uint8_t alarm_code;
 
 static IDATA char line[LINE_MAX + 1];
 static FAST uint8_t line_len;
-/* Fletcher sums 256 * s2 + s1 (put_eol): of the line's bytes before its '*',
- * and of the reply line so far. */
+/* CRC-16s (crc16): of the line's bytes before its '*', and of the reply
+ * line so far. */
 static XDATA uint16_t line_sum, tx_sum;
+#define CRC_START 0xFFFFu
 static FAST uint8_t line_star;    /* index of '*' + 1, 0 if none */
 static FLAG resend_asked;         /* an rs is outstanding: drop later lines quietly */
 static FLAG machine;              /* the line being executed is in machine form */
@@ -48,17 +49,19 @@ static FLAG out_lcd;              /* out() writes to the LCD (protocol_lcd) */
 static FAST uint8_t lcd_col;
 #endif
 
-/* One byte into a Fletcher sum: 8-bit ones' complement additions (an
- * end-around carry), i.e. modulo 255, so that bit 7 errors cannot cancel. */
-static void fletcher(XDATA uint16_t *sum, uint8_t c)
+/* One byte into a CRC-16/CCITT-FALSE (polynomial 0x1021, start 0xFFFF, no
+ * reflection, PROTOCOL.md), without a table: the eight shift-and-xor steps
+ * folded into byte operations, so it costs a few dozen bytes of flash and no
+ * 512-byte table.  It catches every error of up to three flipped bits and
+ * every burst of up to 16 bits in a line, where a sum modulo 255 lets some
+ * pairs of damaged bytes through. */
+static void crc16(XDATA uint16_t *crc, uint8_t c)
 {
-    uint16_t t = *sum;
-    uint8_t s1 = (uint8_t)t, s2 = (uint8_t)(t >> 8);
-    s1 += c;
-    if (s1 < c) s1++;
-    s2 += s1;
-    if (s2 < s1) s2++;
-    *sum = (uint16_t)((uint16_t)s2 << 8 | s1);
+    uint16_t t = *crc;
+    uint8_t lo = (uint8_t)t, x = (uint8_t)(t >> 8) ^ c;
+    x ^= x >> 4;
+    lo ^= (uint8_t)(x << 4) ^ (x >> 3);   /* the new high byte */
+    *crc = (uint16_t)((uint16_t)lo << 8 | (uint8_t)((uint8_t)(x << 5) ^ x));
 }
 
 /* Every byte of a reply goes through here, summed for the line's checksum. */
@@ -73,7 +76,7 @@ static void out(uint8_t c)
     }
 #endif
     hal_putc(c);
-    fletcher(&tx_sum, c);
+    crc16(&tx_sum, c);
 }
 
 static void put_str(const ROM char *s)
@@ -86,16 +89,14 @@ static void put_str(const ROM char *s)
 
 static void put_u16(uint16_t v);
 
-/* End a reply line with " *<checksum>": the Fletcher sum 256 * s2 + s1 of
- * the bytes before the '*' (fletcher).  Unlike an XOR it notices a
- * dropped or repeated pair of equal bytes and swapped bytes; the host trusts
- * no reply that fails it. */
+/* End a reply line with " *<checksum>": the CRC-16 of the bytes before the
+ * '*' (crc16); the host trusts no reply that fails it. */
 static void put_eol(void)
 {
     out(' ');
     hal_putc('*');
     put_u16(tx_sum);
-    tx_sum = 0;
+    tx_sum = CRC_START;
     hal_putc('\r');
     hal_putc('\n');
 }
@@ -161,7 +162,7 @@ static void put_free(void)
 static void line_clear(void)
 {
     line_len = 0;
-    line_sum = 0;
+    line_sum = CRC_START;
     line_star = 0;
     line_long = 0;
 }
@@ -169,6 +170,7 @@ static void line_clear(void)
 void protocol_init(void)
 {
     line_clear();
+    tx_sum = CRC_START;
     expected_seq = 0;
     resend_asked = 0;
     alarm_code = 0;
@@ -575,7 +577,7 @@ static void receive_byte(uint8_t c)
         if (c == '*') {
             line_star = line_len;         /* the '*' is at line_len - 1 */
         } else {
-            fletcher(&line_sum, c);
+            crc16(&line_sum, c);
         }
     }
 }
