@@ -105,32 +105,12 @@ static FAST uint16_t entry;             /* the number typed */
 static XDATA uint8_t entry_n;           /* digits typed */
 static XDATA uint16_t circle[2];        /* the centre typed */
 
-/* Segments a..g on bits 0..6 (dp on bit 7), lit when 1. */
-static const ROM uint8_t seg_font[10] = {
-    0x3F, 0x06, 0x5B, 0x4F, 0x66, 0x6D, 0x7D, 0x07, 0x7F, 0x6F,
-};
-
-/* The right four digits of the 7-segment display show v (0..9999). */
-static void show_number(uint16_t v)
-{
-    static const ROM uint16_t tens[4] = {1000, 100, 10, 1};
-    uint8_t k, d;
-    for (k = 0; k < 4; k++) {
-        d = 0;
-        while (v >= tens[k]) {
-            v -= tens[k];
-            d++;
-        }
-        panel_segments[k] = seg_font[d];
-    }
-}
-
 static void to_menu(void)
 {
     entry_field = NOT_TYPING;
     panel_prompt = P_READY;
     panel_moving = 0;
-    show_number(JOG_FEED());
+    protocol_segments(JOG_FEED());
 }
 
 void panel_stop(void)
@@ -194,7 +174,7 @@ static void new_number(void)
 {
     entry = 0;
     entry_n = 0;
-    show_number(0);
+    protocol_segments(0);
     panel_prompt = (uint8_t)(P_CENTRE_X + (uint8_t)(entry_field * (uint8_t)P_FIELD));
 }
 
@@ -209,7 +189,7 @@ static void key_typed(uint8_t k)
         entry = (uint16_t)((uint8_t)entry * (uint8_t)10)
                 + ((uint16_t)(uint8_t)((uint8_t)(entry >> 8) * (uint8_t)10) << 8) + k;
         entry_n++;
-        show_number(entry);
+        protocol_segments(entry);
         return;
     }
     if (!(entry_field & 2)) circle[entry_field] = entry;   /* the centre: fields 0, 1 */

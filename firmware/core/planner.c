@@ -26,7 +26,8 @@ IDATA uint16_t setting[SETTINGS] = {1, RAMP_TRAPEZOID, 2000, 150};
 #define FEED_MIN 15u    /* slower would overflow the 16-bit step period */
 
 static IDATA segment_t plan;
-static uint32_t arc_t;          /* arc: R^2, then work values */
+uint32_t plan_t;
+#define arc_t plan_t            /* arc: R^2, then work values */
 static uint16_t arc_r;          /* arc: radius, rounded down */
 static FLAG arc_cw;             /* arc: clockwise */
 

@@ -49,6 +49,11 @@ uint8_t queue_used(void);
 extern IDATA uint16_t plan_arg[6];  /* coordinates as int16_t */
 extern SEQ_MEM uint16_t plan_seq;   /* sequence number of the command (0 when typed) */
 
+/* A 32-bit work value: an arc's arithmetic in planner_arc, and the
+ * protocol's number printing, which never run at once; one copy in the
+ * scarce direct RAM. */
+extern uint32_t plan_t;
+
 uint8_t planner_line(void);
 #ifdef ZAXIS
 uint8_t planner_z(void);    /* dz at plan_arg[0], alone: Z moves, X and Y stay */

@@ -42,11 +42,12 @@ static FAST uint8_t nargs;
  * block; a command turns them into its numbers in place. */
 #define arg_mag plan_arg
 
-static IDATA uint32_t num;        /* the number put_num prints */
+#define num plan_t                 /* the number put_num prints */
 
 #ifdef PANEL
 static FLAG out_lcd;              /* out() writes to the LCD (protocol_lcd) */
-static FAST uint8_t lcd_col;
+static FLAG out_seg;              /* out() writes digits to the 7-segment display (protocol_segments) */
+#define lcd_col nargs             /* the arguments are parsed and used before the LCD is written */
 #endif
 
 /* One byte into a CRC-16/CCITT-FALSE (polynomial 0x1021, start 0xFFFF, no
@@ -64,11 +65,23 @@ static void crc16(XDATA uint16_t *crc, uint8_t c)
     *crc = (uint16_t)((uint16_t)lo << 8 | (uint8_t)((uint8_t)(x << 5) ^ x));
 }
 
+#ifdef PANEL
+/* Segments a..g on bits 0..6 (dp on bit 7), lit when 1. */
+static const ROM uint8_t seg_font[10] = {
+    0x3F, 0x06, 0x5B, 0x4F, 0x66, 0x6D, 0x7D, 0x07, 0x7F, 0x6F,
+};
+#endif
+
 /* Every byte of a reply goes through here, summed for the line's checksum. */
 
 static void out(uint8_t c)
 {
 #ifdef PANEL
+    if (out_seg) {
+        if (lcd_col < 4) panel_segments[lcd_col] = seg_font[(uint8_t)(c - '0')];
+        lcd_col++;
+        return;
+    }
     if (out_lcd) {
         HAL_LCD_WRITE(c, 1);
         lcd_col++;
@@ -215,6 +228,20 @@ void protocol_lcd(const ROM char *text)
     put_str(text);
     lcd_line(0x80);
     out_lcd = 0;
+}
+#endif
+
+#ifdef PANEL
+/* v (0..9999) on the 7-segment display's right four digits, with leading
+ * zeros: the digits of 10000 + v, printed as replies are, all but its
+ * leading 1. */
+void protocol_segments(uint16_t v)
+{
+    out_seg = 1;
+    lcd_col = 0xFF;
+    num = (uint32_t)v + 10000u;
+    put_num();
+    out_seg = 0;
 }
 #endif
 
@@ -378,11 +405,10 @@ static uint8_t cmd_setting(void)
     cur++;
     if (parse_num(&arg_mag[1]) != 1 || cur != end) return E_NUMBER;
     if (arg_mag[0] >= SETTINGS) return E_RANGE;
-    key = (uint8_t)arg_mag[0];
-    range = setting_range[key];
+    range = setting_range[(uint8_t)arg_mag[0]];
     if (arg_mag[1] < range[0] || arg_mag[1] > range[1]) return E_RANGE;
     if (st_running || queue_used()) return E_BUSY;
-    setting[key] = arg_mag[1];
+    setting[(uint8_t)arg_mag[0]] = arg_mag[1];      /* key again: not kept across the call */
     return E_OK;
 }
 
