@@ -23,7 +23,6 @@
 uint8_t alarm_code;
 
 static IDATA char line[LINE_MAX + 1];
-static FAST uint8_t line_len;
 /* CRC-16s (crc16): of the line's bytes before its '*', and of the reply
  * line so far. */
 static XDATA uint16_t line_sum, tx_sum;
@@ -35,7 +34,9 @@ static SEQ_MEM uint16_t expected_seq;  /* next sequence number to execute */
 static FLAG line_long;            /* the line overflowed LINE_MAX */
 
 static IDATA char *FAST cur;      /* parse cursor into line[] */
-static IDATA char *FAST end;      /* end of the command: the line's end, or its '*' */
+/* Where the next received byte goes; while a line is executed, the end of
+ * its command: the line's end, or its '*'. */
+static IDATA char *FAST end;
 static FAST uint8_t arg_neg;      /* bit k set: argument k is negative */
 static FAST uint8_t nargs;
 /* The arguments' magnitudes are parsed straight into the planner's argument
@@ -174,7 +175,7 @@ static void put_free(void)
 /* Start a new line. */
 static void line_clear(void)
 {
-    line_len = 0;
+    end = line;
     line_sum = CRC_START;
     line_star = 0;
     line_long = 0;
@@ -540,9 +541,8 @@ static void execute_line(void)
     uint8_t err;
     uint16_t ahead;                       /* how far plan_seq is past expected_seq */
 
-    line[line_len] = 0;
+    *end = 0;
     cur = line;
-    end = line + line_len;
     skip_separators();
     err = E_TOOLONG;
     machine = 0;
@@ -588,20 +588,20 @@ static void execute_line(void)
 static void receive_byte(uint8_t c)
 {
     if (c == '\n' || c == '\r') {
-        if (line_len || line_long) {
+        if (end != line || line_long) {
             execute_line();
         }
         line_clear();
         return;
     }
-    if (line_len >= LINE_MAX) {
+    if (end == line + LINE_MAX) {
         line_long = 1;
         return;
     }
-    line[line_len++] = (char)c;
+    *end++ = (char)c;
     if (!line_star) {
         if (c == '*') {
-            line_star = line_len;         /* the '*' is at line_len - 1 */
+            line_star = (uint8_t)(end - line);
         } else {
             crc16(&line_sum, c);
         }
