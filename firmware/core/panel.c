@@ -130,7 +130,7 @@ void panel_init(void)
 
 static uint8_t motion_idle(void)
 {
-    if (st_running || queue_used() || FIGURE_PLAYING() || alarm_code) return 0;
+    if (planner_busy() || FIGURE_PLAYING() || alarm_code) return 0;
     return 1;
 }
 

@@ -52,6 +52,12 @@ uint8_t queue_used(void)
     return n;
 }
 
+uint8_t planner_busy(void)
+{
+    if (st_running) return 1;
+    return queue_used();
+}
+
 void planner_flush(void)
 {
     q_tail = q_head;
@@ -499,7 +505,7 @@ uint8_t planner_pen(uint8_t down)
     plan.kind = SEG_PEN;
     if (down) down = BIT_PEN;
     plan.dirs = down;
-    plan.steps = SETTING(SET_PEN) ? SETTING(SET_PEN) : 1;
+    plan.steps = SETTING(SET_PEN);      /* 1..5000: the protocol checks $3 */
     return plan_wait();
 }
 

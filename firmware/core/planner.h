@@ -36,6 +36,7 @@ extern XDATA uint16_t queue_final[QUEUE_SLOTS];
 
 uint8_t queue_used(void);
 #define QUEUE_FREE() ((uint8_t)(QUEUE_SIZE - queue_used()))
+uint8_t planner_busy(void);     /* not 0 while steps run or commands are queued */
 
 /* The numbers of the command to plan, set by the caller (the protocol) before
  * planner_line / planner_arc, in the order of the protocol's arguments:

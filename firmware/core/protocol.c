@@ -287,12 +287,11 @@ static void report_status(void)
 /* Each text at its offset: alarm_texts + offset. */
 static const ROM char alarm_texts[] = "reset\0alarm estop\0alarm limit";
 
+static const ROM uint8_t alarm_offset[3] = {0, 6, 18};   /* per alarm_code */
+
 const ROM char *alarm_text(void)
 {
-    uint8_t k = 0;
-    if (alarm_code) k = 18;
-    if (alarm_code == ALARM_ESTOP) k = 6;
-    return alarm_texts + k;
+    return alarm_texts + alarm_offset[alarm_code];
 }
 
 void protocol_alarm(uint8_t code)
@@ -408,7 +407,7 @@ static uint8_t cmd_setting(void)
     if (arg_mag[0] >= SETTINGS) return E_RANGE;
     range = setting_range[(uint8_t)arg_mag[0]];
     if (arg_mag[1] < range[0] || arg_mag[1] > range[1]) return E_RANGE;
-    if (st_running || queue_used()) return E_BUSY;
+    if (planner_busy()) return E_BUSY;
     setting[(uint8_t)arg_mag[0]] = arg_mag[1];      /* key again: not kept across the call */
     return E_OK;
 }
@@ -468,7 +467,7 @@ static uint8_t run_command(void)
     if (arg_neg) return E_RANGE;          /* only coordinates are negative */
     if (cmd == 'P' && arg_mag[0] > 1) return E_RANGE;
     if (cmd == 'H') {
-        if (st_running || queue_used()) return E_BUSY;
+        if (planner_busy()) return E_BUSY;
         stepper_zero();
         return E_OK;
     }
