@@ -134,17 +134,19 @@ static uint8_t motion_idle(void)
     return 1;
 }
 
-/* plan_arg[k] = target - the pen's coordinate k: 0 if that is beyond a
- * move's reach.  16-bit arithmetic on the position's halves: the
- * difference fits a move when the high half plus the borrow is its sign. */
-static uint8_t to_target(uint8_t k, uint16_t target)
+/* plan_arg[k], a target coordinate, less the pen's coordinate k: 0 if
+ * that is beyond a move's reach.  16-bit arithmetic on the position's
+ * halves: the difference fits a move when the high half plus the borrow is
+ * its sign.  The target comes in plan_arg, not as a parameter: a byte less
+ * of the internal RAM that SDCC overlays for leaf functions. */
+static uint8_t to_target(uint8_t k)
 {
+    IDATA uint16_t *d = &plan_arg[k];
     uint16_t lo = (uint16_t)pos_copy[k];
     uint16_t hi = (uint16_t)((uint32_t)pos_copy[k] >> 16);
-    uint16_t d = target - lo;
-    plan_arg[k] = d;
-    if (target < lo) hi++;
-    return hi == (d >> 15);
+    if (*d < lo) hi++;
+    *d -= lo;
+    return hi == (*d >> 15);
 }
 
 /* The circle of the typed centre and radius (steps from the origin): the
@@ -153,7 +155,9 @@ static void circle_start(void)
 {
     IDATA uint16_t *p;
     stepper_snapshot();
-    if (!entry || !to_target(0, circle[0] + entry) || !to_target(1, circle[1])) {
+    plan_arg[0] = circle[0] + entry;
+    plan_arg[1] = circle[1];
+    if (!entry || !to_target(0) || !to_target(1)) {
         panel_prompt = P_RANGE;
         return;
     }

@@ -27,7 +27,7 @@ static IDATA char line[LINE_MAX + 1];
  * line so far. */
 static XDATA uint16_t line_sum, tx_sum;
 #define CRC_START 0xFFFFu
-static FAST uint8_t line_star;    /* index of '*' + 1, 0 if none */
+static FLAG line_star;            /* the line has a '*': the bytes from it on are not summed */
 static FLAG resend_asked;         /* an rs is outstanding: drop later lines quietly */
 static FLAG machine;              /* the line being executed is in machine form */
 static SEQ_MEM uint16_t expected_seq;  /* next sequence number to execute */
@@ -527,8 +527,9 @@ static void reply(uint8_t err)
 static uint8_t sequence_parsed(void)
 {
     if (*cur != 'N' || !line_star) return 0;
-    cur = line + line_star;
-    end = cur - 1;
+    end = line;
+    while (*end != '*') end++;
+    cur = end + 1;
     if (!parse_u16() || *cur != 0 || arg_mag[0] != line_sum) return 0;
     cur = line + 1;
     while (*cur == ' ') cur++;
@@ -600,7 +601,7 @@ static void receive_byte(uint8_t c)
     *end++ = (char)c;
     if (!line_star) {
         if (c == '*') {
-            line_star = (uint8_t)(end - line);
+            line_star = 1;
         } else {
             crc16(&line_sum, c);
         }
