@@ -11,6 +11,9 @@
  * gives every local of a non-leaf function a fixed address anyway), flags
  * are bits, and constant text is assembled by the preprocessor. */
 #include "protocol.h"
+#ifdef __SDCC
+#pragma noinduction     /* SDCC's induction variables cost this file 11 bytes of flash */
+#endif
 #include "planner.h"
 #include "stepper.h"
 #include "serial.h"
