@@ -22,7 +22,6 @@
 #define JOG_UNIT   250
 #define JOG_MAX    32
 #define JOG_FEED() ((uint8_t)jog * (uint8_t)JOG_UNIT)   /* mul ab: 8 x 8 bits */
-#define NOT_TYPING 3            /* entry_field when no number is being typed */
 
 /* What each key does (seed 000, figure 3.2): a jog in the MV_* directions
  * of the low nibble, a figure, or one of the others. */
@@ -73,7 +72,10 @@ static const ROM char prompts[] =
 #define P_CIRCLE   73
 #define P_RANGE    80
 #define P_PAUSED   93
-#define P_FIELD    10       /* the three numbers' prompts: P_CENTRE_X + entry_field * P_FIELD */
+#define P_FIELD    10       /* the three numbers' prompts: P_CENTRE_X + field * P_FIELD */
+/* A number is being typed while its prompt shows: the prompt is the state
+ * of the entry (no other prompt lies between the first and the last). */
+#define TYPING() ((uint8_t)(panel_prompt - P_CENTRE_X) <= (uint8_t)(P_RADIUS - P_CENTRE_X))
 #ifndef __SDCC
 #define PROMPT_AFTER(p, t, q) typedef char prompt_##q##_offset[(p) + sizeof t == (q) ? 1 : -1]
 PROMPT_AFTER(P_DIAMOND, T_DIAMOND, P_STAR);
@@ -88,6 +90,7 @@ PROMPT_AFTER(P_READY, T_READY, P_JOG);
 PROMPT_AFTER(P_JOG, T_JOG, P_CIRCLE);
 PROMPT_AFTER(P_CIRCLE, T_CIRCLE, P_RANGE);
 PROMPT_AFTER(P_RANGE, T_RANGE, P_PAUSED);
+typedef char no_other_prompt_among_the_fields[P_CAR_REV < P_CENTRE_X && P_RADIUS < P_READY ? 1 : -1];
 typedef char prompts_of_the_fields_are_evenly_spaced[
     P_CENTRE_Y - P_CENTRE_X == P_FIELD && P_RADIUS - P_CENTRE_Y == P_FIELD ? 1 : -1];
 #endif
@@ -98,7 +101,6 @@ FAST uint8_t panel_prompt;
 volatile FLAG rt_star;
 static FLAG panel_moving;               /* a key started motion: "Ready" once it ends */
 
-static FAST uint8_t entry_field;        /* the circle's centre X, centre Y, radius: 0..2 */
 static FAST uint8_t key_last, key_count;
 static FAST uint8_t jog;                /* the jog feed / JOG_UNIT */
 static FAST uint16_t entry;             /* the number typed */
@@ -107,7 +109,6 @@ static XDATA uint16_t circle[2];        /* the centre typed */
 
 static void to_menu(void)
 {
-    entry_field = NOT_TYPING;
     panel_prompt = P_READY;
     panel_moving = 0;
     protocol_segments(JOG_FEED());
@@ -179,7 +180,6 @@ static void new_number(void)
     entry = 0;
     entry_n = 0;
     protocol_segments(0);
-    panel_prompt = (uint8_t)(P_CENTRE_X + (uint8_t)(entry_field * (uint8_t)P_FIELD));
 }
 
 /* A key while a number is typed: a digit shifts in, any other key (or a
@@ -196,12 +196,13 @@ static void key_typed(uint8_t k)
         protocol_segments(entry);
         return;
     }
-    if (!(entry_field & 2)) circle[entry_field] = entry;   /* the centre: fields 0, 1 */
-    if (++entry_field == NOT_TYPING) {
+    if (panel_prompt == P_RADIUS) {
         to_menu();
         circle_start();
         return;
     }
+    circle[panel_prompt == P_CENTRE_Y] = entry;     /* the centre: X, then Y */
+    panel_prompt += P_FIELD;
     new_number();
 }
 
@@ -209,7 +210,7 @@ static void key_pressed(uint8_t k)
 {
     IDATA uint16_t *p;
     uint8_t a;
-    if (entry_field != NOT_TYPING) {
+    if (TYPING()) {
         key_typed(k);
         return;
     }
@@ -259,7 +260,7 @@ static void key_pressed(uint8_t k)
         to_menu();
         return;
     }
-    entry_field = 0;
+    panel_prompt = P_CENTRE_X;
     new_number();
 }
 
@@ -277,7 +278,7 @@ void panel_tick(void)
     }
     if (rt_star) {
         rt_star = 0;
-        if (entry_field == NOT_TYPING) {
+        if (!TYPING()) {
             key_pressed(K_STAR);          /* as the star key, but never as a digit */
         }
     }

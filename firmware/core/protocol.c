@@ -40,7 +40,7 @@ static IDATA char *FAST cur;      /* parse cursor into line[] */
 /* Where the next received byte goes; while a line is executed, the end of
  * its command: the line's end, or its '*'. */
 static IDATA char *FAST end;
-static FAST uint8_t arg_neg;      /* bit k set: argument k is negative */
+static IDATA uint8_t arg_neg;     /* bit k set: argument k is negative */
 static FAST uint8_t nargs;
 /* The arguments' magnitudes are parsed straight into the planner's argument
  * block; a command turns them into its numbers in place. */
