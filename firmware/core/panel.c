@@ -101,7 +101,7 @@ FAST uint8_t panel_prompt;
 volatile FLAG rt_star;
 static FLAG panel_moving;               /* a key started motion: "Ready" once it ends */
 
-static FAST uint8_t key_last, key_count;
+static XDATA uint8_t key_last, key_count;  /* read once a millisecond: not worth direct RAM */
 static FAST uint8_t jog;                /* the jog feed / JOG_UNIT */
 static FAST uint16_t entry;             /* the number typed */
 static XDATA uint8_t entry_n;           /* digits typed */
