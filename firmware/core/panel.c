@@ -201,7 +201,11 @@ static void key_typed(uint8_t k)
         circle_start();
         return;
     }
-    circle[panel_prompt == P_CENTRE_Y] = entry;     /* the centre: X, then Y */
+    if (panel_prompt == P_CENTRE_X) {
+        circle[0] = entry;                          /* the centre: X, then Y */
+    } else {
+        circle[1] = entry;
+    }
     panel_prompt += P_FIELD;
     new_number();
 }

@@ -355,6 +355,8 @@ static uint8_t parse_u16(void)
     return parse_num(&arg_mag[0]) == 1;
 }
 
+static const ROM uint8_t arg_bit[6] = {1, 2, 4, 8, 16, 32};  /* 1 << k: no shift loop */
+
 /* Parse the arguments after the command letter, up to the end. */
 static uint8_t parse_args(void)
 {
@@ -370,7 +372,7 @@ static uint8_t parse_args(void)
         if (nargs == 6 || !(sign = parse_num(&arg_mag[nargs]))) {
             return E_NUMBER;
         }
-        if (sign == 2) arg_neg |= (uint8_t)(1 << nargs);
+        if (sign == 2) arg_neg |= arg_bit[nargs];
         nargs++;
         if (!skip_separators() && cur < end) {
             return E_NUMBER;              /* a number runs on into something else */
