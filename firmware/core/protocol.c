@@ -386,6 +386,9 @@ static RAMP_ROM uint16_t setting_range[SETTINGS][2] = {   /* least, greatest */
     {1, 50}, {0, RAMP_SHAPES - 1}, {15, 65535u}, {1, 5000},
 };
 
+#if SETTINGS & (SETTINGS - 1)
+#error "cmd_setting: the range check of the key takes SETTINGS to be a power of two"
+#endif
 static uint8_t cmd_setting(void)
 {
     const RAMP_ROM uint16_t *range;
@@ -409,7 +412,7 @@ static uint8_t cmd_setting(void)
     if (!parse_u16() || *cur != '=') return E_NUMBER;   /* $<key>=<value> */
     cur++;
     if (parse_num(&arg_mag[1]) != 1 || cur != end) return E_NUMBER;
-    if (arg_mag[0] >= SETTINGS) return E_RANGE;
+    if (arg_mag[0] & (uint16_t)~(SETTINGS - 1)) return E_RANGE;   /* >= SETTINGS, a power of two */
     range = setting_range[(uint8_t)arg_mag[0]];
     if (arg_mag[1] < range[0] || arg_mag[1] > range[1]) return E_RANGE;
     if (planner_busy()) return E_BUSY;
