@@ -3,13 +3,14 @@
 No ROS, no pty: the board runs on simulated time through tests/sim_port.py.
 """
 import random
+import re
 
 import pytest
 
-from firmware_build import host_library
+from firmware_build import FIRMWARE, host_library
 from plotter_bridge.sim.firmware_core import FirmwareCore
 from plotter_bridge.link.board_link import STATUS_SHARE, WAIT_SHARE, BoardLink
-from plotter_bridge.link.protocol import (Banner, Err, Ok, Resend, Status, checksum, compact_command, fletcher,
+from plotter_bridge.link.protocol import (Banner, Err, Ok, Resend, Status, checksum, compact_command, crc16,
                                      machine_line, parse_reply)
 from sim_port import SimPort
 
@@ -100,16 +101,51 @@ def test_reply_parsing():
     assert parse_reply(signed("ok N12 Q5").replace("Q5", "Q")) is None
 
 
-def test_checksum_is_fletcher_with_end_around_carry():
-    assert fletcher(b"A") == (65 << 8) | 65
-    assert fletcher(b"\xff\x01") == fletcher(b"\x00\x01")   # 255 and 0 are the same modulo 255
+def test_checksum_is_crc16_ccitt_false():
+    assert crc16(b"123456789") == 0x29B1                      # the catalogue's check value
+    assert crc16(b"") == 0xFFFF
+    assert checksum("N17L400 -300") == 41846
 
 
-def test_checksum_catches_what_xor_misses():
+def test_checksum_catches_what_a_sum_misses():
     assert checksum("N1 L 100 ") != checksum("N1 L 1 ")      # a dropped pair of equal bytes
     assert checksum("N1 L 12 ") != checksum("N1 L 21 ")      # swapped bytes
-    # Two flips of bit 7 in the same direction cancel modulo 256, not modulo 255.
-    assert fletcher(bytes([0x41, 0x42, 0x43, 0x44])) != fletcher(bytes([0x41, 0xC2, 0xC3, 0x44]))
+    # 255 and 0 are the same modulo 255, and two flips of bit 7 cancel modulo 256.
+    assert crc16(b"\xff\x01") != crc16(b"\x00\x01")
+    assert crc16(bytes([0x41, 0x42, 0x43, 0x44])) != crc16(bytes([0x41, 0xC2, 0xC3, 0x44]))
+
+
+def test_every_two_bit_flips_in_a_line_are_caught():
+    body = b"N65535C-32767 -32767 -32767 -32767 12850 12850"
+    good = crc16(body)
+    bits = len(body) * 8
+    for a in range(bits):
+        for b in range(a, bits):
+            damaged = bytearray(body)
+            damaged[a // 8] ^= 1 << (a % 8)
+            if b != a:
+                damaged[b // 8] ^= 1 << (b % 8)
+            assert crc16(bytes(damaged)) != good, (a, b)
+
+
+def test_protocol_md_worked_examples(core):
+    """The check values PROTOCOL.md gives are the host's and the board's."""
+    text = (FIRMWARE / "PROTOCOL.md").read_text()
+    lines = re.findall(r"^ {4}(N\d+[^*\n]*)\*(\d+)$", text, re.M)
+    assert {body for body, _ in lines} >= {"N17 L 400 -300 ", "N17L400 -300"}
+    for body, value in lines:
+        assert checksum(body) == int(value), body
+        core.reset()
+        core.transmitted()
+        core.receive(f"{body}*{value}\n".encode())
+        core.poll(4)
+        # N17 while the board expects 0: a sequence gap (E7), not a checksum error (E2).
+        replies = [parse_reply(r) for r in core.transmitted().decode().splitlines()]
+        assert Resend(0, 7) in replies, replies
+    reply = re.search(r"`(ok N17 Q5) \*(\d+)`", text)
+    assert reply and checksum(reply.group(1) + " ") == int(reply.group(2))
+    assert parse_reply(f"{reply.group(1)} *{reply.group(2)}") == Ok(17, 5)
+    assert "0x29B1" in text and crc16(b"123456789") == 0x29B1
 
 
 def test_stream_many_segments_keeps_queue_busy_and_ends_exactly(core):

@@ -22,7 +22,6 @@
 #define JOG_UNIT   250
 #define JOG_MAX    32
 #define JOG_FEED() ((uint8_t)jog * (uint8_t)JOG_UNIT)   /* mul ab: 8 x 8 bits */
-#define NOT_TYPING 3            /* entry_field when no number is being typed */
 
 /* What each key does (seed 000, figure 3.2): a jog in the MV_* directions
  * of the low nibble, a figure, or one of the others. */
@@ -73,7 +72,10 @@ static const ROM char prompts[] =
 #define P_CIRCLE   73
 #define P_RANGE    80
 #define P_PAUSED   93
-#define P_FIELD    10       /* the three numbers' prompts: P_CENTRE_X + entry_field * P_FIELD */
+#define P_FIELD    10       /* the three numbers' prompts: P_CENTRE_X + field * P_FIELD */
+/* A number is being typed while its prompt shows: the prompt is the state
+ * of the entry (no other prompt lies between the first and the last). */
+#define TYPING() ((uint8_t)(panel_prompt - P_CENTRE_X) <= (uint8_t)(P_RADIUS - P_CENTRE_X))
 #ifndef __SDCC
 #define PROMPT_AFTER(p, t, q) typedef char prompt_##q##_offset[(p) + sizeof t == (q) ? 1 : -1]
 PROMPT_AFTER(P_DIAMOND, T_DIAMOND, P_STAR);
@@ -88,6 +90,7 @@ PROMPT_AFTER(P_READY, T_READY, P_JOG);
 PROMPT_AFTER(P_JOG, T_JOG, P_CIRCLE);
 PROMPT_AFTER(P_CIRCLE, T_CIRCLE, P_RANGE);
 PROMPT_AFTER(P_RANGE, T_RANGE, P_PAUSED);
+typedef char no_other_prompt_among_the_fields[P_CAR_REV < P_CENTRE_X && P_RADIUS < P_READY ? 1 : -1];
 typedef char prompts_of_the_fields_are_evenly_spaced[
     P_CENTRE_Y - P_CENTRE_X == P_FIELD && P_RADIUS - P_CENTRE_Y == P_FIELD ? 1 : -1];
 #endif
@@ -98,39 +101,17 @@ FAST uint8_t panel_prompt;
 volatile FLAG rt_star;
 static FLAG panel_moving;               /* a key started motion: "Ready" once it ends */
 
-static FAST uint8_t entry_field;        /* the circle's centre X, centre Y, radius: 0..2 */
-static FAST uint8_t key_last, key_count;
+static XDATA uint8_t key_last, key_count;  /* read once a millisecond: not worth direct RAM */
 static FAST uint8_t jog;                /* the jog feed / JOG_UNIT */
 static FAST uint16_t entry;             /* the number typed */
 static XDATA uint8_t entry_n;           /* digits typed */
 static XDATA uint16_t circle[2];        /* the centre typed */
 
-/* Segments a..g on bits 0..6 (dp on bit 7), lit when 1. */
-static const ROM uint8_t seg_font[10] = {
-    0x3F, 0x06, 0x5B, 0x4F, 0x66, 0x6D, 0x7D, 0x07, 0x7F, 0x6F,
-};
-
-/* The right four digits of the 7-segment display show v (0..9999). */
-static void show_number(uint16_t v)
-{
-    static const ROM uint16_t tens[4] = {1000, 100, 10, 1};
-    uint8_t k, d;
-    for (k = 0; k < 4; k++) {
-        d = 0;
-        while (v >= tens[k]) {
-            v -= tens[k];
-            d++;
-        }
-        panel_segments[k] = seg_font[d];
-    }
-}
-
 static void to_menu(void)
 {
-    entry_field = NOT_TYPING;
     panel_prompt = P_READY;
     panel_moving = 0;
-    show_number(JOG_FEED());
+    protocol_segments(JOG_FEED());
 }
 
 void panel_stop(void)
@@ -150,21 +131,23 @@ void panel_init(void)
 
 static uint8_t motion_idle(void)
 {
-    if (st_running || queue_used() || FIGURE_PLAYING() || alarm_code) return 0;
+    if (planner_busy() || FIGURE_PLAYING() || alarm_code) return 0;
     return 1;
 }
 
-/* plan_arg[k] = target - the pen's coordinate k: 0 if that is beyond a
- * move's reach.  16-bit arithmetic on the position's halves: the
- * difference fits a move when the high half plus the borrow is its sign. */
-static uint8_t to_target(uint8_t k, uint16_t target)
+/* plan_arg[k], a target coordinate, less the pen's coordinate k: 0 if
+ * that is beyond a move's reach.  16-bit arithmetic on the position's
+ * halves: the difference fits a move when the high half plus the borrow is
+ * its sign.  The target comes in plan_arg, not as a parameter: a byte less
+ * of the internal RAM that SDCC overlays for leaf functions. */
+static uint8_t to_target(uint8_t k)
 {
+    IDATA uint16_t *d = &plan_arg[k];
     uint16_t lo = (uint16_t)pos_copy[k];
     uint16_t hi = (uint16_t)((uint32_t)pos_copy[k] >> 16);
-    uint16_t d = target - lo;
-    plan_arg[k] = d;
-    if (target < lo) hi++;
-    return hi == (d >> 15);
+    if (*d < lo) hi++;
+    *d -= lo;
+    return hi == (*d >> 15);
 }
 
 /* The circle of the typed centre and radius (steps from the origin): the
@@ -173,7 +156,9 @@ static void circle_start(void)
 {
     IDATA uint16_t *p;
     stepper_snapshot();
-    if (!entry || !to_target(0, circle[0] + entry) || !to_target(1, circle[1])) {
+    plan_arg[0] = circle[0] + entry;
+    plan_arg[1] = circle[1];
+    if (!entry || !to_target(0) || !to_target(1)) {
         panel_prompt = P_RANGE;
         return;
     }
@@ -194,8 +179,7 @@ static void new_number(void)
 {
     entry = 0;
     entry_n = 0;
-    show_number(0);
-    panel_prompt = (uint8_t)(P_CENTRE_X + (uint8_t)(entry_field * (uint8_t)P_FIELD));
+    protocol_segments(0);
 }
 
 /* A key while a number is typed: a digit shifts in, any other key (or a
@@ -209,15 +193,20 @@ static void key_typed(uint8_t k)
         entry = (uint16_t)((uint8_t)entry * (uint8_t)10)
                 + ((uint16_t)(uint8_t)((uint8_t)(entry >> 8) * (uint8_t)10) << 8) + k;
         entry_n++;
-        show_number(entry);
+        protocol_segments(entry);
         return;
     }
-    if (!(entry_field & 2)) circle[entry_field] = entry;   /* the centre: fields 0, 1 */
-    if (++entry_field == NOT_TYPING) {
+    if (panel_prompt == P_RADIUS) {
         to_menu();
         circle_start();
         return;
     }
+    if (panel_prompt == P_CENTRE_X) {
+        circle[0] = entry;                          /* the centre: X, then Y */
+    } else {
+        circle[1] = entry;
+    }
+    panel_prompt += P_FIELD;
     new_number();
 }
 
@@ -225,7 +214,7 @@ static void key_pressed(uint8_t k)
 {
     IDATA uint16_t *p;
     uint8_t a;
-    if (entry_field != NOT_TYPING) {
+    if (TYPING()) {
         key_typed(k);
         return;
     }
@@ -275,7 +264,7 @@ static void key_pressed(uint8_t k)
         to_menu();
         return;
     }
-    entry_field = 0;
+    panel_prompt = P_CENTRE_X;
     new_number();
 }
 
@@ -293,7 +282,7 @@ void panel_tick(void)
     }
     if (rt_star) {
         rt_star = 0;
-        if (entry_field == NOT_TYPING) {
+        if (!TYPING()) {
             key_pressed(K_STAR);          /* as the star key, but never as a digit */
         }
     }

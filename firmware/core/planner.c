@@ -26,7 +26,8 @@ IDATA uint16_t setting[SETTINGS] = {1, RAMP_TRAPEZOID, 2000, 150};
 #define FEED_MIN 15u    /* slower would overflow the 16-bit step period */
 
 static IDATA segment_t plan;
-static uint32_t arc_t;          /* arc: R^2, then work values */
+uint32_t plan_t;
+#define arc_t plan_t            /* arc: R^2, then work values */
 static uint16_t arc_r;          /* arc: radius, rounded down */
 static FLAG arc_cw;             /* arc: clockwise */
 
@@ -49,6 +50,12 @@ uint8_t queue_used(void)
     uint8_t n = (uint8_t)(q_head - q_tail);    /* q_tail read once: the step interrupt moves it */
     if (n >= QUEUE_SLOTS) n += QUEUE_SLOTS;     /* wrapped below 0 */
     return n;
+}
+
+uint8_t planner_busy(void)
+{
+    if (st_running) return 1;
+    return queue_used();
 }
 
 void planner_flush(void)
@@ -498,7 +505,7 @@ uint8_t planner_pen(uint8_t down)
     plan.kind = SEG_PEN;
     if (down) down = BIT_PEN;
     plan.dirs = down;
-    plan.steps = SETTING(SET_PEN) ? SETTING(SET_PEN) : 1;
+    plan.steps = SETTING(SET_PEN);      /* 1..5000: the protocol checks $3 */
     return plan_wait();
 }
 

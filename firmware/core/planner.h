@@ -36,6 +36,7 @@ extern XDATA uint16_t queue_final[QUEUE_SLOTS];
 
 uint8_t queue_used(void);
 #define QUEUE_FREE() ((uint8_t)(QUEUE_SIZE - queue_used()))
+uint8_t planner_busy(void);     /* not 0 while steps run or commands are queued */
 
 /* The numbers of the command to plan, set by the caller (the protocol) before
  * planner_line / planner_arc, in the order of the protocol's arguments:
@@ -48,6 +49,11 @@ uint8_t queue_used(void);
 #define PLAN_EXIT 5
 extern IDATA uint16_t plan_arg[6];  /* coordinates as int16_t */
 extern SEQ_MEM uint16_t plan_seq;   /* sequence number of the command (0 when typed) */
+
+/* A 32-bit work value: an arc's arithmetic in planner_arc, and the
+ * protocol's number printing, which never run at once; one copy in the
+ * scarce direct RAM. */
+extern uint32_t plan_t;
 
 uint8_t planner_line(void);
 #ifdef ZAXIS

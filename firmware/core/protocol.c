@@ -11,6 +11,9 @@
  * gives every local of a non-leaf function a fixed address anyway), flags
  * are bits, and constant text is assembled by the preprocessor. */
 #include "protocol.h"
+#ifdef __SDCC
+#pragma noinduction     /* SDCC's induction variables cost this file 11 bytes of flash */
+#endif
 #include "planner.h"
 #include "stepper.h"
 #include "serial.h"
@@ -23,49 +26,66 @@
 uint8_t alarm_code;
 
 static IDATA char line[LINE_MAX + 1];
-static FAST uint8_t line_len;
-/* Fletcher sums 256 * s2 + s1 (put_eol): of the line's bytes before its '*',
- * and of the reply line so far. */
+/* CRC-16s (crc16): of the line's bytes before its '*', and of the reply
+ * line so far. */
 static XDATA uint16_t line_sum, tx_sum;
-static FAST uint8_t line_star;    /* index of '*' + 1, 0 if none */
+#define CRC_START 0xFFFFu
+static FLAG line_star;            /* the line has a '*': the bytes from it on are not summed */
 static FLAG resend_asked;         /* an rs is outstanding: drop later lines quietly */
 static FLAG machine;              /* the line being executed is in machine form */
 static SEQ_MEM uint16_t expected_seq;  /* next sequence number to execute */
 static FLAG line_long;            /* the line overflowed LINE_MAX */
 
 static IDATA char *FAST cur;      /* parse cursor into line[] */
-static IDATA char *FAST end;      /* end of the command: the line's end, or its '*' */
-static FAST uint8_t arg_neg;      /* bit k set: argument k is negative */
+/* Where the next received byte goes; while a line is executed, the end of
+ * its command: the line's end, or its '*'. */
+static IDATA char *FAST end;
+static IDATA uint8_t arg_neg;     /* bit k set: argument k is negative */
 static FAST uint8_t nargs;
 /* The arguments' magnitudes are parsed straight into the planner's argument
  * block; a command turns them into its numbers in place. */
 #define arg_mag plan_arg
 
-static IDATA uint32_t num;        /* the number put_num prints */
+#define num plan_t                 /* the number put_num prints */
 
 #ifdef PANEL
 static FLAG out_lcd;              /* out() writes to the LCD (protocol_lcd) */
-static FAST uint8_t lcd_col;
+static FLAG out_seg;              /* out() writes digits to the 7-segment display (protocol_segments) */
+#define lcd_col nargs             /* the arguments are parsed and used before the LCD is written */
 #endif
 
-/* One byte into a Fletcher sum: 8-bit ones' complement additions (an
- * end-around carry), i.e. modulo 255, so that bit 7 errors cannot cancel. */
-static void fletcher(XDATA uint16_t *sum, uint8_t c)
+/* One byte into a CRC-16/CCITT-FALSE (polynomial 0x1021, start 0xFFFF, no
+ * reflection, PROTOCOL.md), without a table: the eight shift-and-xor steps
+ * folded into byte operations, so it costs a few dozen bytes of flash and no
+ * 512-byte table.  It catches every error of up to three flipped bits and
+ * every burst of up to 16 bits in a line, where a sum modulo 255 lets some
+ * pairs of damaged bytes through. */
+static void crc16(XDATA uint16_t *crc, uint8_t c)
 {
-    uint16_t t = *sum;
-    uint8_t s1 = (uint8_t)t, s2 = (uint8_t)(t >> 8);
-    s1 += c;
-    if (s1 < c) s1++;
-    s2 += s1;
-    if (s2 < s1) s2++;
-    *sum = (uint16_t)((uint16_t)s2 << 8 | s1);
+    uint16_t t = *crc;
+    uint8_t lo = (uint8_t)t, x = (uint8_t)(t >> 8) ^ c;
+    x ^= x >> 4;
+    lo ^= (uint8_t)(x << 4) ^ (x >> 3);   /* the new high byte */
+    *crc = (uint16_t)((uint16_t)lo << 8 | (uint8_t)((uint8_t)(x << 5) ^ x));
 }
+
+#ifdef PANEL
+/* Segments a..g on bits 0..6 (dp on bit 7), lit when 1. */
+static const ROM uint8_t seg_font[10] = {
+    0x3F, 0x06, 0x5B, 0x4F, 0x66, 0x6D, 0x7D, 0x07, 0x7F, 0x6F,
+};
+#endif
 
 /* Every byte of a reply goes through here, summed for the line's checksum. */
 
 static void out(uint8_t c)
 {
 #ifdef PANEL
+    if (out_seg) {
+        if (lcd_col < 4) panel_segments[lcd_col] = seg_font[(uint8_t)(c - '0')];
+        lcd_col++;
+        return;
+    }
     if (out_lcd) {
         HAL_LCD_WRITE(c, 1);
         lcd_col++;
@@ -73,7 +93,7 @@ static void out(uint8_t c)
     }
 #endif
     hal_putc(c);
-    fletcher(&tx_sum, c);
+    crc16(&tx_sum, c);
 }
 
 static void put_str(const ROM char *s)
@@ -86,16 +106,14 @@ static void put_str(const ROM char *s)
 
 static void put_u16(uint16_t v);
 
-/* End a reply line with " *<checksum>": the Fletcher sum 256 * s2 + s1 of
- * the bytes before the '*' (fletcher).  Unlike an XOR it notices a
- * dropped or repeated pair of equal bytes and swapped bytes; the host trusts
- * no reply that fails it. */
+/* End a reply line with " *<checksum>": the CRC-16 of the bytes before the
+ * '*' (crc16); the host trusts no reply that fails it. */
 static void put_eol(void)
 {
     out(' ');
     hal_putc('*');
     put_u16(tx_sum);
-    tx_sum = 0;
+    tx_sum = CRC_START;
     hal_putc('\r');
     hal_putc('\n');
 }
@@ -160,8 +178,8 @@ static void put_free(void)
 /* Start a new line. */
 static void line_clear(void)
 {
-    line_len = 0;
-    line_sum = 0;
+    end = line;
+    line_sum = CRC_START;
     line_star = 0;
     line_long = 0;
 }
@@ -169,6 +187,7 @@ static void line_clear(void)
 void protocol_init(void)
 {
     line_clear();
+    tx_sum = CRC_START;
     expected_seq = 0;
     resend_asked = 0;
     alarm_code = 0;
@@ -216,6 +235,20 @@ void protocol_lcd(const ROM char *text)
 }
 #endif
 
+#ifdef PANEL
+/* v (0..9999) on the 7-segment display's right four digits, with leading
+ * zeros: the digits of 10000 + v, printed as replies are, all but its
+ * leading 1. */
+void protocol_segments(uint16_t v)
+{
+    out_seg = 1;
+    lcd_col = 0xFF;
+    num = (uint32_t)v + 10000u;
+    put_num();
+    out_seg = 0;
+}
+#endif
+
 /* A status report's start, one per state: put_str(states + its offset). */
 static const ROM char states[] = "<Alarm \0<Hold \0<Run \0<Idle ";
 
@@ -257,12 +290,11 @@ static void report_status(void)
 /* Each text at its offset: alarm_texts + offset. */
 static const ROM char alarm_texts[] = "reset\0alarm estop\0alarm limit";
 
+static const ROM uint8_t alarm_offset[3] = {0, 6, 18};   /* per alarm_code */
+
 const ROM char *alarm_text(void)
 {
-    uint8_t k = 0;
-    if (alarm_code) k = 18;
-    if (alarm_code == ALARM_ESTOP) k = 6;
-    return alarm_texts + k;
+    return alarm_texts + alarm_offset[alarm_code];
 }
 
 void protocol_alarm(uint8_t code)
@@ -323,6 +355,8 @@ static uint8_t parse_u16(void)
     return parse_num(&arg_mag[0]) == 1;
 }
 
+static const ROM uint8_t arg_bit[6] = {1, 2, 4, 8, 16, 32};  /* 1 << k: no shift loop */
+
 /* Parse the arguments after the command letter, up to the end. */
 static uint8_t parse_args(void)
 {
@@ -338,7 +372,7 @@ static uint8_t parse_args(void)
         if (nargs == 6 || !(sign = parse_num(&arg_mag[nargs]))) {
             return E_NUMBER;
         }
-        if (sign == 2) arg_neg |= (uint8_t)(1 << nargs);
+        if (sign == 2) arg_neg |= arg_bit[nargs];
         nargs++;
         if (!skip_separators() && cur < end) {
             return E_NUMBER;              /* a number runs on into something else */
@@ -352,6 +386,9 @@ static RAMP_ROM uint16_t setting_range[SETTINGS][2] = {   /* least, greatest */
     {1, 50}, {0, RAMP_SHAPES - 1}, {15, 65535u}, {1, 5000},
 };
 
+#if SETTINGS & (SETTINGS - 1)
+#error "cmd_setting: the range check of the key takes SETTINGS to be a power of two"
+#endif
 static uint8_t cmd_setting(void)
 {
     const RAMP_ROM uint16_t *range;
@@ -375,12 +412,11 @@ static uint8_t cmd_setting(void)
     if (!parse_u16() || *cur != '=') return E_NUMBER;   /* $<key>=<value> */
     cur++;
     if (parse_num(&arg_mag[1]) != 1 || cur != end) return E_NUMBER;
-    if (arg_mag[0] >= SETTINGS) return E_RANGE;
-    key = (uint8_t)arg_mag[0];
-    range = setting_range[key];
+    if (arg_mag[0] & (uint16_t)~(SETTINGS - 1)) return E_RANGE;   /* >= SETTINGS, a power of two */
+    range = setting_range[(uint8_t)arg_mag[0]];
     if (arg_mag[1] < range[0] || arg_mag[1] > range[1]) return E_RANGE;
-    if (st_running || queue_used()) return E_BUSY;
-    setting[key] = arg_mag[1];
+    if (planner_busy()) return E_BUSY;
+    setting[(uint8_t)arg_mag[0]] = arg_mag[1];      /* key again: not kept across the call */
     return E_OK;
 }
 
@@ -439,7 +475,7 @@ static uint8_t run_command(void)
     if (arg_neg) return E_RANGE;          /* only coordinates are negative */
     if (cmd == 'P' && arg_mag[0] > 1) return E_RANGE;
     if (cmd == 'H') {
-        if (st_running || queue_used()) return E_BUSY;
+        if (planner_busy()) return E_BUSY;
         stepper_zero();
         return E_OK;
     }
@@ -499,8 +535,9 @@ static void reply(uint8_t err)
 static uint8_t sequence_parsed(void)
 {
     if (*cur != 'N' || !line_star) return 0;
-    cur = line + line_star;
-    end = cur - 1;
+    end = line;
+    while (*end != '*') end++;
+    cur = end + 1;
     if (!parse_u16() || *cur != 0 || arg_mag[0] != line_sum) return 0;
     cur = line + 1;
     while (*cur == ' ') cur++;
@@ -512,9 +549,8 @@ static void execute_line(void)
     uint8_t err;
     uint16_t ahead;                       /* how far plan_seq is past expected_seq */
 
-    line[line_len] = 0;
+    *end = 0;
     cur = line;
-    end = line + line_len;
     skip_separators();
     err = E_TOOLONG;
     machine = 0;
@@ -560,22 +596,22 @@ static void execute_line(void)
 static void receive_byte(uint8_t c)
 {
     if (c == '\n' || c == '\r') {
-        if (line_len || line_long) {
+        if (end != line || line_long) {
             execute_line();
         }
         line_clear();
         return;
     }
-    if (line_len >= LINE_MAX) {
+    if (end == line + LINE_MAX) {
         line_long = 1;
         return;
     }
-    line[line_len++] = (char)c;
+    *end++ = (char)c;
     if (!line_star) {
         if (c == '*') {
-            line_star = line_len;         /* the '*' is at line_len - 1 */
+            line_star = 1;
         } else {
-            fletcher(&line_sum, c);
+            crc16(&line_sum, c);
         }
     }
 }

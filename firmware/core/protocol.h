@@ -19,6 +19,7 @@ void protocol_alarm(uint8_t code);
 const ROM char *alarm_text(void);  /* "alarm estop", "alarm limit", or "reset" without an alarm */
 #ifdef PANEL
 void protocol_lcd(const ROM char *text);   /* rewrite the LCD: position, then text */
+void protocol_segments(uint16_t v);        /* v, 0..9999, on the 7-segment display as 4 digits */
 #endif
 
 #endif

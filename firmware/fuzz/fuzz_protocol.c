@@ -8,7 +8,7 @@
  *     -fsanitize=address,undefined);
  *   - no hang: every input is finished under an alarm;
  *   - every reply line the firmware sends ends in " *<sum>\r\n" with the
- *     right Fletcher checksum (PROTOCOL.md), and none is over 80 bytes.
+ *     right CRC-16 (PROTOCOL.md), and none is over 80 bytes.
  *
  * With clang and libFuzzer:
  *   clang -g -O1 -fsanitize=fuzzer,address,undefined -Icore \
@@ -44,31 +44,34 @@ static void fail(const char *why)
     abort();
 }
 
-/* The protocol's Fletcher sum: 8-bit ones' complement additions. */
-static void fletcher_add(uint8_t *s1, uint8_t *s2, uint8_t c)
+/* The protocol's CRC-16/CCITT-FALSE, bit by bit as its definition reads:
+ * a second formula beside the firmware's byte-wise one. */
+static uint16_t crc16_add(uint16_t crc, uint8_t c)
 {
-    unsigned t = (unsigned)*s1 + c;
-    *s1 = (uint8_t)((t & 0xFF) + (t >> 8));
-    t = (unsigned)*s2 + *s1;
-    *s2 = (uint8_t)((t & 0xFF) + (t >> 8));
+    int k;
+    crc ^= (uint16_t)(c << 8);
+    for (k = 0; k < 8; k++) {
+        crc = (uint16_t)((crc & 0x8000u) ? ((unsigned)crc << 1) ^ 0x1021u : (unsigned)crc << 1);
+    }
+    return crc;
 }
 
 /* A reply line: "<text> *<decimal sum>" before "\r\n". */
 static void check_reply(void)
 {
     uint32_t star = reply_len, k, sum = 0, digits = 0;
-    uint8_t s1 = 0, s2 = 0;
+    uint16_t crc = 0xFFFFu;
     while (star > 0 && reply[star - 1] != '*') star--;
     if (star == 0) fail("reply without a checksum");
     for (k = 0; k + 1 < star; k++) {
-        fletcher_add(&s1, &s2, reply[k]);
+        crc = crc16_add(crc, reply[k]);
     }
     for (k = star; k < reply_len; k++) {
         if (reply[k] < '0' || reply[k] > '9') fail("checksum is not a number");
         sum = sum * 10 + (uint32_t)(reply[k] - '0');
         digits++;
     }
-    if (digits == 0 || digits > 5 || sum != (((uint32_t)s2 << 8) | s1)) fail("wrong reply checksum");
+    if (digits == 0 || digits > 5 || sum != crc) fail("wrong reply checksum");
 }
 
 static void drain_replies(void)
@@ -165,12 +168,12 @@ static uint32_t rnd(uint32_t n)
 static size_t machine_line(uint8_t *out, size_t cap, unsigned seq, const char *cmd)
 {
     char body[96];
-    uint8_t s1 = 0, s2 = 0;
+    uint16_t crc = 0xFFFFu;
     size_t k, n = (size_t)snprintf(body, sizeof body, "N%u %s ", seq, cmd);
     for (k = 0; k < n; k++) {
-        fletcher_add(&s1, &s2, (uint8_t)body[k]);
+        crc = crc16_add(crc, (uint8_t)body[k]);
     }
-    n = (size_t)snprintf((char *)out, cap, "%s*%u\n", body, ((unsigned)s2 << 8) | s1);
+    n = (size_t)snprintf((char *)out, cap, "%s*%u\n", body, (unsigned)crc);
     return n < cap ? n : cap;
 }
 

@@ -31,22 +31,32 @@ ERROR_TEXT = {
 }
 
 
-def fletcher(data: bytes) -> int:
-    """The protocol's checksum, as the firmware computes it: s1 += byte,
-    s2 += s1, both 8-bit ones' complement additions (an end-around carry,
-    i.e. modulo 255); the checksum is 256 * s2 + s1."""
-    s1 = s2 = 0
+def _crc16_table() -> tuple:
+    table = []
+    for byte in range(256):
+        crc = byte << 8
+        for _ in range(8):
+            crc = ((crc << 1) ^ 0x1021) if crc & 0x8000 else crc << 1
+        table.append(crc & 0xFFFF)
+    return tuple(table)
+
+
+_CRC16_TABLE = _crc16_table()
+
+
+def crc16(data: bytes) -> int:
+    """The protocol's check, as the firmware computes it: CRC-16/CCITT-FALSE
+    (polynomial 0x1021, start 0xFFFF, not reflected, no final xor;
+    crc16(b"123456789") == 0x29B1)."""
+    crc = 0xFFFF
     for b in data:
-        t = s1 + b
-        s1 = (t & 0xFF) + (t >> 8)
-        t = s2 + s1
-        s2 = (t & 0xFF) + (t >> 8)
-    return (s2 << 8) | s1
+        crc = ((crc << 8) & 0xFFFF) ^ _CRC16_TABLE[(crc >> 8) ^ b]
+    return crc
 
 
 def checksum(text: str) -> int:
     """Checksum of a line's text (non-ASCII characters count as '?')."""
-    return fletcher(text.encode("ascii", "replace"))
+    return crc16(text.encode("ascii", "replace"))
 
 
 # Coordinates before the optional feed and exit of each motion command.
@@ -74,7 +84,7 @@ def compact_command(command: str) -> str:
 
 def machine_line(seq: int, command: str) -> bytes:
     """`N<seq><command>*<checksum>\\n` for a command like `L 10 -4`, the
-    command compacted (`N17L10 -4*15589`).  The firmware skips spaces after
+    command compacted (`N17L10 -4*7700`).  The firmware skips spaces after
     the number and ends the last argument at the `*`, so neither needs a
     separator; the checksum covers every byte before the `*`."""
     body = f"N{seq % SEQ_MOD}{compact_command(command)}"
