@@ -9,6 +9,7 @@ to the step, and every segment executed exactly once (the board's sequence
 log against the job).
 
     .venv/bin/python scripts/reliability_figures.py [--jobs 5] [--segments 1000]
+        [--rates drop=0.02,corrupt=0.02,dup=0.002,delay=0.002 ...]
 """
 from __future__ import annotations
 
@@ -36,6 +37,8 @@ def main() -> int:
     p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     p.add_argument("--jobs", type=int, default=5, help="jobs per fault rate (seeds 1..N)")
     p.add_argument("--segments", type=int, default=1000, help="segments per job")
+    p.add_argument("--rates", nargs="+", default=RATES, metavar="FAULTS",
+                   help="rows of fault rates (faults syntax, '' for none; default: the four of the docs)")
     args = p.parse_args()
     lib = host_library()
     print("| faults per byte, each direction | jobs x segments | bytes on the wire | dropped | corrupted "
@@ -43,7 +46,7 @@ def main() -> int:
           "| jobs completed | positions exact | every segment once | jobs hit by a damaged line taken as valid |")
     print("|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|")
     t0 = time.monotonic()
-    for rates in RATES:
+    for rates in args.rates:
         total, retx, rs, tmo, bad = FaultCounts(), 0, 0, 0, 0
         completed = exact = once = undetected = 0
         for seed in range(1, args.jobs + 1):

@@ -9,8 +9,10 @@ own encoder and reply parser (plotter_bridge.link.protocol).  Checked:
 - a damaged line is refused with `rs`, changes nothing, and its resend runs;
 - a line sent twice runs once; a gap asks for the missing number;
 - a dwell (`D`) waits; a typed line still works beside machine lines;
-- feed hold (`!`) stops the pulses on the path and resume (`~`) finishes the
-  move where it was going: the position is exact.
+- a single `!` or `~` between lines does nothing, and takes no byte of the
+  line after it;
+- feed hold (`!!`) stops the pulses on the path and resume (`~~`) finishes
+  the move where it was going: the position is exact.
 
 Skipped when s51 (Debian package sdcc-ucsim) is missing, except on CI.
 """
@@ -100,10 +102,26 @@ def test_machine_lines_resends_and_dwell(link):
     assert s.alarm == 0
 
 
+def test_a_single_hold_or_resume_byte_does_nothing(link):
+    start = link.wait_state("Idle")
+    raw, reply = link.send(machine_line(3, "L 2000 0 1000"))
+    assert isinstance(reply, Ok) and reply.seq == 3, raw
+    link.wait_state("Run")
+    for byte in (b"!", b"~"):
+        link.sim.write(byte)
+        time.sleep(0.3)
+        assert link.status().state == "Run"
+    raw, reply = link.send(b"!" + machine_line(4, "L 0 100"))
+    assert isinstance(reply, Ok) and reply.seq == 4, raw
+    s = link.wait_state("Idle")
+    assert (s.x - start.x, s.y - start.y) == (2000, 100)
+    assert s.seq == 4 and s.next_seq == 5
+
+
 def test_feed_hold_stops_on_the_path_and_resume_finishes(link):
     start = link.wait_state("Idle")
-    raw, reply = link.send(machine_line(3, "L 3000 -1500 1000"))
-    assert isinstance(reply, Ok) and reply.seq == 3, raw
+    raw, reply = link.send(machine_line(5, "L 3000 -1500 1000"))
+    assert isinstance(reply, Ok) and reply.seq == 5, raw
     link.wait_state("Run")
     link.sim.write(RT_HOLD)
     held = link.wait_state("Hold")
@@ -121,4 +139,4 @@ def test_feed_hold_stops_on_the_path_and_resume_finishes(link):
     link.sim.write(RT_RESUME)
     s = link.wait_state("Idle")
     assert (s.x - start.x, s.y - start.y) == (3000, -1500)
-    assert s.seq == 3 and s.underruns == 0
+    assert s.seq == 5 and s.underruns == 0

@@ -134,7 +134,10 @@ static uint8_t level_for_period(uint16_t p)
         }
         i += RAMP_STEP;
     }
-    plan.exit_brake = RAMP_ABOVE_START(i) ? sum : 0;
+    /* Not ?: (nor a bit in an expression below): SDCC keeps such a
+     * condition in a bit of RAM of its own, and the bit segment is full. */
+    if (!RAMP_ABOVE_START(i)) sum = 0;
+    plan.exit_brake = sum;
     return i;
 }
 
@@ -387,9 +390,6 @@ static uint16_t arc_potential(uint8_t k, IDATA int16_t *pt)
 }
 #endif
 
-#if (SEG_ARC_CCW ^ 1) != SEG_ARC_CW
-#error planner_arc: the kind is SEG_ARC_CCW ^ arc_cw
-#endif
 uint8_t planner_arc(uint8_t clockwise)
 {
     uint8_t qe, cross;
@@ -409,7 +409,9 @@ uint8_t planner_arc(uint8_t clockwise)
     add_squares(&plan.c);
     if (arc_t > (uint32_t)w + w) return E_ARC;
 
-    plan.kind = (uint8_t)(SEG_ARC_CCW ^ arc_cw);
+    qe = SEG_ARC_CCW;                       /* an if: see level_for_period */
+    if (arc_cw) qe = SEG_ARC_CW;
+    plan.kind = qe;
     /* plan.quadrant gets its 4 if clockwise (segment.h) at once: what
      * follows takes it modulo 4, or only its parity */
     qe = arc_quadrant(&plan.a);

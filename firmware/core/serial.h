@@ -5,11 +5,16 @@
  * the interrupt returns) and queues every other byte for the main loop.  It is
  * a macro so the 8051's interrupt needs no function call.
  *
- * One flipped bit turns a line's '8' into Ctrl-X and its '1' into '!'.  So
- * reset, hold and resume act only between lines (after a line end, another
- * real-time byte, or at power-on); inside a line they are dropped, and the
- * damaged line fails its checksum.  ESC is two bit flips away from every byte
- * a host sends in a line, and the status query is harmless: both act anywhere. */
+ * One flipped bit turns a line's '8' into Ctrl-X and its '1' into '!', and a
+ * dropped 'N' puts that digit right after a line end.  So reset, hold and
+ * resume act only as a pair of the same byte between lines (after a line
+ * end, a real-time byte, or at power-on): the first arms and is dropped, the
+ * same byte next acts.  Any other byte disarms and is handled as if the
+ * armed byte had not come, so a lone damaged byte never acts and never takes
+ * a byte of the next line with it.  Inside a line the three are dropped and
+ * arm nothing; the damaged line fails its checksum.  ESC is two bit flips
+ * away from every byte a host sends in a line, and the status query is
+ * harmless: both act anywhere, as single bytes. */
 #ifndef SERIAL_H
 #define SERIAL_H
 
@@ -22,6 +27,9 @@ extern FAST volatile uint8_t rx_head, rx_tail;
 extern FAST volatile uint8_t rx_flush_to;   /* on reset/e-stop: drop input received before it */
 extern volatile FLAG rx_overflow;           /* bytes were lost to a full ring */
 extern volatile FLAG rx_between_lines;      /* no line has started since the last line end */
+/* The armed first byte of a pair, in two bits rather than a byte of
+ * direct RAM: none 00, '!' 01, '~' 10, Ctrl-X 11 (rx_arm_a, rx_arm_b). */
+extern volatile FLAG rx_arm_a, rx_arm_b;
 /* Real-time requests for the main loop. */
 extern volatile FLAG rt_status, rt_resume, rt_estop, rt_reset;
 extern volatile FLAG rt_limit;              /* the step interrupt met a closed limit switch */
@@ -45,31 +53,54 @@ extern volatile FLAG rt_star;
 } while (0)
 
 #define SERIAL_RX_BYTE(c) do {                                              \
-    if ((c) == RT_STATUS) {                                                 \
+    if ((c) == RT_RESET || RT_HOLD_MATCH(c)) {                              \
+        if (rx_between_lines) {                                             \
+            if ((c) == RT_HOLD) {                                           \
+                if (rx_arm_a || !rx_arm_b) {                                \
+                    rx_arm_a = 0;                                           \
+                    rx_arm_b = 1;                                           \
+                    break;              /* armed: past the disarm below */  \
+                }                                                           \
+                st_hold = 1;                                                \
+            } else if ((c) == RT_RESUME) {                                  \
+                if (!rx_arm_a || rx_arm_b) {                                \
+                    rx_arm_a = 1;                                           \
+                    rx_arm_b = 0;                                           \
+                    break;                                                  \
+                }                                                           \
+                rt_resume = 1;                                              \
+            } else {                                                        \
+                if (!rx_arm_a || !rx_arm_b) {                               \
+                    rx_arm_a = 1;                                           \
+                    rx_arm_b = 1;                                           \
+                    break;                                                  \
+                }                                                           \
+                RT_STOP(rt_reset);                                          \
+            }                                                               \
+        }                                                                   \
+    } else if ((c) == RT_STATUS) {                                          \
         rt_status = 1;                                                      \
     } else if ((c) == RT_ESTOP) {                                           \
         RT_STOP(rt_estop);                                                  \
         rx_between_lines = 1;                                               \
     } else if (RT_STAR_MATCH(c)) {                                          \
         RT_STAR_SET();                                                      \
-    } else if ((c) == RT_RESET || RT_HOLD_MATCH(c)) {                      \
-        if (rx_between_lines) {                                             \
-            if ((c) == RT_HOLD) {                                           \
-                st_hold = 1;                                                \
-            } else if ((c) == RT_RESUME) {                                  \
-                rt_resume = 1;                                              \
-            } else {                                                        \
-                RT_STOP(rt_reset);                                          \
-            }                                                               \
-        }                                                                   \
     } else if ((uint8_t)(rx_head - rx_tail) < RX_SIZE) {                    \
         rx_buf[rx_head & (RX_SIZE - 1)] = (c);                              \
         rx_head++;                                                          \
-        rx_between_lines = ((c) == '\n' || (c) == '\r');                    \
+        /* if/else: an assigned comparison costs SDCC a bit of RAM */       \
+        if ((c) == '\n' || (c) == '\r') {                                   \
+            rx_between_lines = 1;                                           \
+        } else {                                                            \
+            rx_between_lines = 0;                                           \
+        }                                                                   \
     } else {                                                                \
         rx_overflow = 1;                                                    \
         rx_between_lines = 0;                                               \
     }                                                                       \
+    /* acted, or any other byte: nothing stays armed */                     \
+    rx_arm_a = 0;                                                           \
+    rx_arm_b = 0;                                                           \
 } while (0)
 
 #endif

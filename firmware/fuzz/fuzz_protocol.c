@@ -205,6 +205,10 @@ static void build_seeds(void)
         add_seed(buf, n);
     }
     add_seed((const uint8_t *)"?!~\x18\x1b\n?", 7);
+    /* Hold, resume and reset act as pairs between lines: the pairs, a pair
+     * split by another byte, and pairs inside a line. */
+    add_seed((const uint8_t *)"\n!!?~~?\x18\x18?", 10);
+    add_seed((const uint8_t *)"\n!~!\x18?\x18\n~L!!1~~ 1\x18\x18\n?", 21);
 }
 
 static const uint8_t interesting[] = {'\n', '\r', '*', 'N', ' ', ',', '-', '+', '0', '9', '?', '!',

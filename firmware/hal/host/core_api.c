@@ -75,6 +75,7 @@ void core_reset(void)
     rx_head = rx_tail = rx_flush_to = 0;
     rx_overflow = 0;
     rx_between_lines = 1;
+    rx_arm_a = rx_arm_b = 0;
     rt_status = rt_resume = rt_estop = rt_reset = 0;
     setting[SET_ACCEL] = 1;
     setting[SET_SHAPE] = RAMP_TRAPEZOID;

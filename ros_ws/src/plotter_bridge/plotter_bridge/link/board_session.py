@@ -16,9 +16,10 @@ things go wrong:
   link cannot explain): the position is unknown until the origin is set
   again, and a running job is aborted, since a relative move cut short
   cannot be finished from an unknown place.
-- Emergency stop, hold, resume and reset are real-time bytes that noise may
-  destroy, or a half-received line may swallow: each is sent again until a
-  status report shows it took effect.
+- Emergency stop, hold, resume and reset are real-time bytes (the last
+  three a pair of the same byte, after a line end) that noise may destroy,
+  or a half-received line may swallow: each is sent again until a status
+  report shows it took effect.
 - A job whose lease runs out (its client stopped renewing it) stops at a
   command boundary: nothing more is sent, the board finishes what it has
   acknowledged, and the job ends with the exact number of commands done.
@@ -93,7 +94,7 @@ class Job:
 
 @dataclass
 class _Realtime:
-    byte: bytes
+    wire: bytes                       # ESC, or the pair of !, ~ or Ctrl-X
     check: Callable[[Status], bool]
     sent_at: float
     deadline: float
@@ -445,16 +446,16 @@ class BoardSession:
         return self.wait_job(job, timeout)
 
     # --- real-time commands ----------------------------------------------------------
-    def _request_rt(self, byte: bytes, check: Callable[[Status], bool]) -> _Realtime:
+    def _request_rt(self, wire: bytes, check: Callable[[Status], bool]) -> _Realtime:
         now = self.clock()
-        rt = _Realtime(byte, check, now, now + self.config.rt_timeout)
+        rt = _Realtime(wire, check, now, now + self.config.rt_timeout)
         self._rt = rt
         self._send_rt(rt)
         return rt
 
     def _send_rt(self, rt: _Realtime) -> None:
-        # ESC acts anywhere; the others only between lines, so end any line first.
-        self.link.port.write(rt.byte if rt.byte == RT_ESTOP else b"\n" + rt.byte)
+        # ESC acts anywhere; the pairs only between lines, so end any line first.
+        self.link.port.write(rt.wire if rt.wire == RT_ESTOP else b"\n" + rt.wire)
         rt.sent_at = self.clock()
         self.link.request_status()
 
@@ -465,7 +466,7 @@ class BoardSession:
         if now > rt.deadline:
             rt.failed = True
             self._rt = None
-            self._set_error(f"the board did not confirm real-time byte {rt.byte!r}")
+            self._set_error(f"the board did not confirm real-time command {rt.wire!r}")
             return
         if now - rt.sent_at > self.config.rt_retry:
             self._send_rt(rt)
@@ -473,7 +474,7 @@ class BoardSession:
     def realtime(self, what: str, timeout: Optional[float] = None) -> tuple:
         """estop, hold, resume or reset, confirmed by a status report:
         (success, message)."""
-        byte, check = {"estop": (RT_ESTOP, _in_alarm), "hold": (RT_HOLD, _held),
+        wire, check = {"estop": (RT_ESTOP, _in_alarm), "hold": (RT_HOLD, _held),
                        "resume": (RT_RESUME, _not_held), "reset": (RT_RESET, _reset_done)}[what]
         with self.lock:
             if self.port is None or self.link is None:
@@ -488,7 +489,7 @@ class BoardSession:
                 self._resync = True
             if what == "reset":
                 self._set_error("")
-            rt = self._request_rt(byte, check)
+            rt = self._request_rt(wire, check)
         with self._cond:
             self._cond.wait_for(lambda: rt.done or rt.failed or self._rt is not rt,
                                 self.config.rt_timeout if timeout is None else timeout)

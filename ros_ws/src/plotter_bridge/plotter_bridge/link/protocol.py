@@ -18,10 +18,13 @@ MIN_RATE = 15              # steps/s: the firmware's slowest feed
 MAX_RATE = 12850           # steps/s: the top of the firmware's ramp table ($I field T)
 FIRMWARE_ACCEL = 100000    # steps/s^2: the firmware's ramp at divisor $0=1 ($I field A)
 
+# Real-time commands as they go on the wire.  Hold, resume and reset are a
+# pair of the same byte, acted on between lines only: one flipped bit makes
+# a line's '1' a '!' and its '8' a Ctrl-X, and a single one must not act.
 RT_STATUS = b"?"
-RT_HOLD = b"!"
-RT_RESUME = b"~"
-RT_RESET = b"\x18"
+RT_HOLD = b"!!"
+RT_RESUME = b"~~"
+RT_RESET = b"\x18\x18"
 RT_ESTOP = b"\x1b"
 
 ERROR_TEXT = {
