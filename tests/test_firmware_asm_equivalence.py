@@ -59,12 +59,12 @@ def run_host(lines, prefix_only=False):
         for line in settings:
             core.receive(line.encode() + b"\n")
             core.poll(5)
-        core.receive(b"!")
+        core.receive(b"!!")
         core.poll(3)
         for line in moves:
             core.receive(line.encode() + b"\n")
             core.poll(5)
-        core.receive(b"~")
+        core.receive(b"~~")
         out, since, pen = [], 0, core.pen_down
         x1, y1 = core.position
         while True:
@@ -107,7 +107,7 @@ def run_board(image, lines, vcd, interrupt=None):
         moves = [l for l in lines if not l.startswith("$")]
         for line in settings:
             assert sim.line(line).startswith("ok"), line
-        sim.write(b"!")
+        sim.write(b"!!")
         sim.write(b"?")
         sim.read_until(rb"<Hold[^\n]*\n")
         for line in moves:
@@ -119,7 +119,7 @@ def run_board(image, lines, vcd, interrupt=None):
         if not interrupt:
             sim.cmd(f"tbreak 0x{stopped:x}")
         sim.go()
-        sim.write(b"~")
+        sim.write(b"~~")
         if interrupt:
             for data in interrupt:
                 time.sleep(0.4)
@@ -167,7 +167,7 @@ def test_pulse_for_pulse(image, tmp_path, batch):
           f"{worst:.1f} cycles, {len(late)} pulses late after a long interrupt")
 
 
-@pytest.mark.parametrize("typed", [[b"!", b"~"], [b"\x1b"]], ids=["hold", "estop"])
+@pytest.mark.parametrize("typed", [[b"!!", b"~~"], [b"\x1b"]], ids=["hold", "estop"])
 def test_hold_and_estop_keep_to_the_path(image, tmp_path, typed):
     lines = ["L 20000 9000 3000"]
     want = strip(run_host(lines))

@@ -84,7 +84,7 @@ def measure(sim, command, saturate):
     long after it is asked to)."""
     offs = segment_offsets(s51sim.FIRMWARE / "core" / "segment.h")
     sim.go()
-    sim.write(b"!?")
+    sim.write(b"!!?")
     sim.read_until(rb"<Hold[^\n]*\n")
     sim.write(command.encode() + b"\n")
     reply = sim.read_until(rb"(?:ok|err|rs)[^\r\n]*\r\n").decode().strip()
@@ -103,7 +103,7 @@ def measure(sim, command, saturate):
     sim.cmd(f"tbreak 0x{stop:x}")
     sim.vcd_start()
     sim.go()
-    sim.write(b"~")
+    sim.write(b"~~")
     sim.wait_stop(timeout=300)
     sim.vcd_stop()
 
@@ -136,11 +136,11 @@ def host_schedule(library, command):
     from plotter_bridge.sim.firmware_core import FirmwareCore
     core = FirmwareCore(library)
     try:
-        core.receive(b"!")
+        core.receive(b"!!")
         core.poll(3)
         core.receive(command.encode() + b"\n")
         core.poll(5)
-        core.receive(b"~")
+        core.receive(b"~~")
         out, since = [], 0
         x1, y1 = core.position
         while True:
