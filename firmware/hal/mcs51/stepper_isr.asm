@@ -55,7 +55,13 @@ SEG_LINE = 1
 SEG_PEN	= 4
 SEG_DWELL = 5
 QUEUE_SLOTS = 7
-DWELL_P	= 922			; DWELL_PERIOD
+;  DWELL_PERIOD, one millisecond in machine cycles: CPU_6T is set (0 or 1)
+;  by the build's clock.s, assembled ahead of this file (firmware/Makefile).
+	.if CPU_6T
+DWELL_P	= 1843
+	.else
+DWELL_P	= 922
+	.endif
 
 ;  segment_t (core/segment.h)
 ;  kind       _st_seg + 0
