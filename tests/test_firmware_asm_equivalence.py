@@ -20,6 +20,8 @@ the pen.  Then a feed hold and resume in the middle of a line, and an
 e-stop (ESC) in the middle of another, whose pulses must be a prefix of the
 host's path (their moment depends on the serial line, so not the timing).
 """
+import re
+import subprocess
 import sys
 import time
 
@@ -176,3 +178,17 @@ def test_hold_and_estop_keep_to_the_path(image, tmp_path, typed):
     got = strip(board_events(vcd))
     assert 0 < len(got) < len(want)
     assert got == want[:len(got)]
+
+
+@pytest.mark.parametrize("options", [{}, {"CPU6T": "1"}], ids=["12t", "6t"])
+def test_line_sign_bit_is_st_lf_high_byte(options):
+    """stepper_isr.asm tests F's sign as bit LF_SIGN, which is bit 7 of
+    st_lf's high byte only where the linker put st_lf: at 0x2d."""
+    subprocess.run(["make", "-s", "-C", str(FIRMWARE), *(f"{k}={v}" for k, v in options.items()),
+                    "build/6t/plotter.ihx" if options else "build/plotter.ihx"], check=True)
+    base = FIRMWARE / "build" / ("6t/plotter" if options else "plotter")
+    st_lf = s51sim.Symbols(base)["_st_lf"]
+    lf_sign = int(re.search(r"^LF_SIGN\s*=\s*0x([0-9a-f]+)",
+                            (FIRMWARE / "hal/mcs51/stepper_isr.asm").read_text(), re.M).group(1), 16)
+    assert 0x20 <= st_lf + 1 <= 0x2F, hex(st_lf)
+    assert lf_sign == (st_lf + 1 - 0x20) * 8 + 7, (hex(st_lf), hex(lf_sign))

@@ -7,9 +7,16 @@
 #define FW_NAME     "PLOTTER 8051"
 #define FW_VERSION  "1.0"
 
-/* STC89C52RC at 11.0592 MHz, 12 clocks per machine cycle. */
+/* STC89C52RC at 11.0592 MHz, 12 clocks per machine cycle; 6 with CPU_6T
+ * (the chip's double-speed mode, an option byte set when it is programmed:
+ * make CPU6T=1, README.md). */
+#ifdef CPU_6T
+#define CYCLES_PER_S  1843200UL
+#define DWELL_PERIOD  1843u         /* one millisecond in machine cycles */
+#else
 #define CYCLES_PER_S  921600UL
 #define DWELL_PERIOD  922u          /* one millisecond in machine cycles */
+#endif
 
 #define QUEUE_SIZE  6               /* motion segments buffered ahead */
 #define RX_SIZE     64              /* UART receive ring (power of two) */

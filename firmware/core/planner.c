@@ -23,7 +23,14 @@ SEQ_MEM uint16_t plan_seq;
 
 IDATA uint16_t setting[SETTINGS] = {1, RAMP_TRAPEZOID, 2000, 150};
 
-#define FEED_MIN 15u    /* slower would overflow the 16-bit step period */
+/* The slowest feed, steps/s (slower ones run at it): slower would overflow
+ * the 16-bit step period.  At 6 clocks per cycle (CPU_6T) a turn of the
+ * timer lasts 35.6 ms instead of 71.1, so the floor doubles. */
+#ifdef CPU_6T
+#define FEED_MIN 29u
+#else
+#define FEED_MIN 15u
+#endif
 
 static IDATA segment_t plan;
 uint32_t plan_t;

@@ -54,10 +54,7 @@ FAST int32_t pos_x, pos_y;
 #ifdef ZAXIS
 XDATA int32_t pos_z;
 #endif
-FAST segment_t st_seg;
 volatile FLAG st_running, st_paused, st_hold;
-FAST volatile uint8_t st_port;
-FAST volatile uint8_t st_level;
 IDATA volatile uint16_t st_underruns;
 
 #ifdef HAL_STEP_PERIOD
@@ -80,6 +77,12 @@ static FLAG st_ybase;                 /* line: Y is the base axis, the one that 
 ST_STATE FAST int16_t st_lf;            /* line: deviation F */
 ST_STATE FAST int32_t st_af;            /* arc: deviation F = x^2 + y^2 - R^2 */
 #endif
+/* After F: defined in this order, the board's image has st_lf right after
+ * the positions, its high byte in bit-addressable RAM, where the hand-made
+ * step interrupt tests F's sign with one instruction. */
+FAST segment_t st_seg;
+FAST volatile uint8_t st_port;
+FAST volatile uint8_t st_level;
 #ifdef DRIVE_PHASE
 static XDATA uint8_t st_phase_y;      /* the Y windings' pattern (no byte of internal RAM is left) */
 #endif

@@ -1,7 +1,11 @@
 #!/usr/bin/env python3
 """Machine cycles per step of the 8051 image, measured in the s51 simulator.
 
-usage: tools/bench.py build/plotter        (make bench)
+usage: tools/bench.py [--clock HZ] build/plotter        (make bench)
+
+--clock 22118400 (make bench CPU6T=1): s51's crystal for an image built for
+the chip's 6-clock mode, which s51 does not model: at twice the crystal its
+12-clock cycles last as long as the chip's 6-clock ones at 11.0592 MHz.
 
 For a long line and for an arc the board is driven through its UART like a
 host would, and s51 records a VCD trace of port 1 and of PSW.3 (the register
@@ -18,7 +22,7 @@ bank bit only the step interrupt sets, see tools/s51sim.py).  From the trace:
   (the 8051 runs one main-loop instruction between two interrupts).
 
 Ends with the two lines `line: N steps/s` and `arc: N steps/s`, the
-sustained rates at 11.0592 MHz.
+sustained rates in real seconds (11.0592 MHz crystal, 12 or 6 clocks a cycle).
 """
 import collections
 import re
@@ -31,7 +35,6 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 import s51sim  # noqa: E402
 
 STEP_BITS = 0x05                       # P1.0 X step, P1.2 Y step (core/config.h)
-CYCLES_PER_S = s51sim.CLOCK_HZ // 12
 
 
 def segment_offsets(header):
@@ -108,7 +111,7 @@ def measure(sim, command, saturate):
     sim.vcd_stop()
 
 
-def analyse(vcd_path, overhead):
+def analyse(vcd_path, overhead, clock_hz):
     ev = s51sim.read_vcd(vcd_path)
     pulses = []
     prev = 0xFF
@@ -116,14 +119,14 @@ def analyse(vcd_path, overhead):
         if v & STEP_BITS and not prev & STEP_BITS:
             pulses.append(t)
         prev = v
-    intervals = [s51sim.cycles(b - a) for a, b in zip(pulses, pulses[1:])]
+    intervals = [s51sim.cycles(b - a, clock_hz) for a, b in zip(pulses, pulses[1:])]
     isr = []
     start = None
     for t, v in ev["PSW.3"] if overhead is not None else ():
         if v and start is None:
             start = t
         elif not v and start is not None:
-            isr.append(s51sim.cycles(t - start) + overhead)
+            isr.append(s51sim.cycles(t - start, clock_hz) + overhead)
             start = None
     return [round(x) for x in intervals], [round(x) for x in isr]
 
@@ -164,7 +167,14 @@ def summary(values):
 
 
 def main(argv):
-    base = Path(argv[1]) if len(argv) > 1 else s51sim.FIRMWARE / "build" / "plotter"
+    args = list(argv[1:])
+    clock_hz = s51sim.CLOCK_HZ
+    if "--clock" in args:
+        k = args.index("--clock")
+        clock_hz = int(args[k + 1])
+        del args[k:k + 2]
+    cycles_per_s = clock_hz // 12
+    base = Path(args[0]) if args else s51sim.FIRMWARE / "build" / "plotter"
     if not s51sim.s51_path():
         print("s51 (Debian package sdcc-ucsim) is not installed", file=sys.stderr)
         return 1
@@ -177,13 +187,13 @@ def main(argv):
         for name, command in cases:
             for saturate in (False, True):
                 vcd = str(Path(tmp) / f"{name}{int(saturate)}.vcd")
-                with s51sim.Sim(base, vcd=vcd) as sim:
+                with s51sim.Sim(base, vcd=vcd, clock_hz=clock_hz) as sim:
                     overhead = isr_overhead(sim.sym)
                     sim.go()
                     sim.read_until(rb"ready[^\n]*\n")
                     sim.stop()
                     measure(sim, command, saturate)
-                intervals, isr = analyse(vcd, overhead)
+                intervals, isr = analyse(vcd, overhead, clock_hz)
                 results[(name, saturate)] = (intervals, isr)
                 label = "saturated (cruise period overwritten)" if saturate else "as commanded"
                 print(f"{name}: {command!r}, {label}")
@@ -209,6 +219,7 @@ def main(argv):
               f"{len([k for k, _ in slow if k in set(ramp)])} of them on the ramps, "
               f"steps {len(got) + 1} vs {len(want) + 1} in the table)")
     print()
+    print(f"s51 at {clock_hz} Hz, 12 clocks a cycle: {cycles_per_s} machine cycles/s")
     rates = {}
     for name in ("line", "arc"):
         intervals, isr = results[(name, True)]
@@ -218,7 +229,7 @@ def main(argv):
         cruise = intervals[n // 4:3 * n // 4]
         cruise_isr = isr[n // 4:3 * n // 4]
         per_step = statistics.mean(cruise)
-        rates[name] = int(CYCLES_PER_S / per_step)
+        rates[name] = int(cycles_per_s / per_step)
         detail = (f" (ISR {min(cruise_isr)}..{max(cruise_isr)} cycles per step, "
                   f"{min(isr)}..{max(isr)} over the whole segment incl. ramps and segment load)") if isr else ""
         print(f"{name} at saturation, cruise: {per_step:.1f} machine cycles per step{detail}")

@@ -4,7 +4,9 @@
 Used by tools/bench.py and tests/test_firmware_sim.py.  The simulated board:
 
 - s51 -t 8052 -X 11.0592M, the STC89C52RC's clock: one machine cycle is
-  12 clocks, CYCLE_PS picoseconds;
+  12 clocks, CYCLE_PS picoseconds.  A chip in 6-clock mode (make CPU6T=1)
+  runs as s51 does at twice the crystal, CLOCK_HZ_6T: s51 knows only 12
+  clocks a cycle;
 - its UART on two pseudo-terminals in raw mode (`-S in=...,out=...`), polled
   every cycle (`uart0_check_often=1`) so that typed lines arrive whole;
 - the simulator's command line on a local TCP port (`-Z`), prompt a NUL
@@ -29,6 +31,7 @@ import tty
 from pathlib import Path
 
 CLOCK_HZ = 11_059_200
+CLOCK_HZ_6T = 2 * CLOCK_HZ
 CYCLE_PS = 12 * 10**12 / CLOCK_HZ          # one machine cycle in picoseconds
 
 FIRMWARE = Path(__file__).resolve().parent.parent
@@ -78,8 +81,10 @@ class Symbols:
 class Sim:
     """One simulated board.  Use as a context manager."""
 
-    def __init__(self, base=FIRMWARE / "build" / "plotter", vcd=None, timeout=30.0, extra_signals=()):
+    def __init__(self, base=FIRMWARE / "build" / "plotter", vcd=None, timeout=30.0, extra_signals=(),
+                 clock_hz=CLOCK_HZ):
         self.base = Path(base)
+        self.clock_hz = clock_hz
         self.sym = Symbols(self.base)
         self.timeout = timeout
         self._pty = []
@@ -90,7 +95,7 @@ class Sim:
         port = sock.getsockname()[1]
         sock.close()
         self.proc = subprocess.Popen(
-            ["s51", "-b", "-P", "-t", "8052", "-X", "11.0592M",
+            ["s51", "-b", "-P", "-t", "8052", "-X", str(clock_hz),
              "-S", f"in={rx_name},out={tx_name}", "-Z", str(port),
              str(self.base.with_suffix(".ihx"))],
             stdin=subprocess.DEVNULL, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
@@ -270,5 +275,6 @@ def read_vcd(path):
     return events
 
 
-def cycles(ps):
-    return ps / CYCLE_PS
+def cycles(ps, clock_hz=CLOCK_HZ):
+    """Machine cycles in ps picoseconds of s51 run at clock_hz."""
+    return ps * clock_hz / (12 * 10**12)

@@ -49,7 +49,7 @@ void hal_putc(uint8_t c)
 /* The panel's 1 ms tick, polled by the main loop (no interrupt: the
  * panel's work may wait, the steps may not): Timer 0 where Timer 2 paces
  * the steps, else Timer 2, or Timer 1 when Timer 2 makes the baud rate. */
-#define TICK_RELOAD ((uint16_t)(0 - 922))   /* 922 machine cycles: 1.0004 ms */
+#define TICK_RELOAD ((uint16_t)(0 - DWELL_PERIOD))   /* 1.0004 ms (922 cycles; 1843 at 6T: 0.9999 ms) */
 #if defined(HAL_STEPPER_ISR_EXTERNAL)
 #define TICK_INIT()                         /* TR0 in TCON_INIT */
 #define TICK_DUE() (TF0 && (TF0 = 0, TH0 = (uint8_t)(TICK_RELOAD >> 8), TL0 = (uint8_t)TICK_RELOAD, 1))
@@ -100,12 +100,19 @@ void estop_isr(void) __interrupt(0)
     RT_STOP(rt_estop);
 }
 
+/* Rounds of the wait below: a round takes twice as many cycles at 6T. */
+#ifdef CPU_6T
+#define LCD_WAIT 40
+#else
+#define LCD_WAIT 20
+#endif
+
 /* After HAL_LCD_WRITE has set RS. */
 void hal_lcd_write(uint8_t b)
 {
-    uint8_t n = 20;
+    uint8_t n = LCD_WAIT;
     P0 = b;
-    P3 |= LCD_E;                /* one machine cycle high: 1.09 us, the LCD needs 0.23 */
+    P3 |= LCD_E;                /* one machine cycle high: 1.09 us (0.54 at 6T), the LCD needs 0.23 */
     P3 &= (uint8_t)~LCD_E;      /* the LCD takes the byte on this edge */
     while (--n) {
         /* 40 us for the LCD to carry it out (R/W is tied low: no busy flag) */
@@ -133,6 +140,14 @@ uint8_t hal_key_scan(void)
 }
 #endif
 
+/* Timer 1's reload for 9600 baud: a bit is 32 overflows, so 3 cycles an
+ * overflow at 921,600 machine cycles/s, 6 at 1,843,200 (6T). */
+#ifdef CPU_6T
+#define BAUD_RELOAD 0xFA
+#else
+#define BAUD_RELOAD 0xFD
+#endif
+
 void main(void)
 {
     TMOD = TMOD_INIT;
@@ -142,8 +157,8 @@ void main(void)
     RCAP2L = 0xFD;
     T2CON = 0x34;                 /* RCLK, TCLK, TR2 */
 #else
-    TH1 = 0xFD;                   /* 9600 baud */
-    TL1 = 0xFD;
+    TH1 = BAUD_RELOAD;            /* 9600 baud */
+    TL1 = BAUD_RELOAD;
 #endif
     TCON = TCON_INIT;
     IP = IP_INIT;

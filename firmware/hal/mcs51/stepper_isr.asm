@@ -55,7 +55,13 @@ SEG_LINE = 1
 SEG_PEN	= 4
 SEG_DWELL = 5
 QUEUE_SLOTS = 7
-DWELL_P	= 922			; DWELL_PERIOD
+;  DWELL_PERIOD, one millisecond in machine cycles: CPU_6T is set (0 or 1)
+;  by the build's clock.s, assembled ahead of this file (firmware/Makefile).
+	.if CPU_6T
+DWELL_P	= 1843
+	.else
+DWELL_P	= 922
+	.endif
 
 ;  segment_t (core/segment.h)
 ;  kind       _st_seg + 0
@@ -72,6 +78,11 @@ DWELL_P	= 922			; DWELL_PERIOD
 ;  cper       _st_seg + 18
 ;  ebrake     _st_seg + 20
 SEG_SIZE = 22
+
+;  F's sign, bit 7 of st_lf's high byte: st_lf is linked at 0x2d (after
+;  pos_x and pos_y, core/stepper.c), so that byte, 0x2e, is bit-addressable.
+;  tests/test_firmware_asm_equivalence.py checks the address in the map.
+LF_SIGN	= 0x77			; (0x2e - 0x20) * 8 + 7
 
 	.globl _stepper_isr
 	.globl _pos_x, _pos_y, _st_seg, _st_port, _st_level, _st_underruns
@@ -172,8 +183,7 @@ pulse_done:
 	jb	_st_hold,run_holding
 	; Line: F >= 0 steps X and adds -|dy| (negated at the load), F < 0
 	; steps Y and adds |dx| (line_step below, in full).
-	mov	a,_st_lf + 1
-	jb	A_7,line_y
+	jb	LF_SIGN,line_y
 	setb	_st_pulse_x
 	clr	_st_pulse_y
 	mov	a,_st_lf
@@ -267,8 +277,7 @@ ramp_fast:
 line_step:
 	; A line step; with st_rampfast (cleared on the way to the full path)
 	; also its count and ramp, the choice made.
-	mov	a,_st_lf + 1
-	jb	A_7,1$
+	jb	LF_SIGN,1$
 	setb	_st_pulse_x
 	clr	_st_pulse_y
 	mov	a,_st_lf
