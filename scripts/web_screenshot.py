@@ -76,7 +76,13 @@ def main() -> int:
             driver.find_element("id", "draw").click()
             wait_until(lambda: driver.find_element("id", "job-count").get_attribute("textContent") != count, 30,
                        f"figure {k + 1} to be sent")
-            wait_until(lambda: text("job-status") == "succeeded", 300, f"figure {k + 1} to be drawn")
+            try:
+                wait_until(lambda: text("job-status") == "succeeded", 180, f"figure {k + 1} to be drawn")
+            except TimeoutError:
+                # What the page and the nodes said, for whoever reads the failure.
+                print(f"page: state {text('state')!r}, job {text('job-status')!r}\n{graph.outputs()}\n"
+                      f"web_ui:\n{ui.output()}", flush=True)
+                raise
             print(f"drew {fig['shape']}{' reversed' if fig.get('reverse') else ''} through the page", flush=True)
         time.sleep(1.5)                       # the ink comes once a second
         Path(args.out).parent.mkdir(parents=True, exist_ok=True)

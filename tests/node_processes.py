@@ -33,6 +33,8 @@ class NodeProcess:
         env["ROS_DOMAIN_ID"] = str(domain)
         env["ROS_AUTOMATIC_DISCOVERY_RANGE"] = "LOCALHOST"
         env["PYTHONUNBUFFERED"] = "1"
+        # SIGABRT then prints every thread's stack: what a node that does not stop was doing.
+        env["PYTHONFAULTHANDLER"] = "1"
         self.module = module
         self.log = tempfile.TemporaryFile(mode="w+")
         args = list(command) if command else [sys.executable, "-m", module]
@@ -59,8 +61,12 @@ class NodeProcess:
             try:
                 self.proc.wait(timeout)
             except subprocess.TimeoutExpired:
-                self.proc.kill()
-                self.proc.wait()
+                self.proc.send_signal(signal.SIGABRT)
+                try:
+                    self.proc.wait(5.0)
+                except subprocess.TimeoutExpired:
+                    self.proc.kill()
+                    self.proc.wait()
                 raise RuntimeError(f"{self.module} did not stop on Ctrl-C:\n{self.output()}")
         return self.proc.returncode
 

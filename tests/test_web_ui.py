@@ -339,8 +339,9 @@ def test_the_screenshot_script_draws_through_the_page(tmp_path):
     import subprocess
     import sys
     out = tmp_path / "page.png"
+    # The script's own waits (at most 30 + 60 + 30 + 180 s) end before this one, and say what they saw.
     r = subprocess.run([sys.executable, str(REPO / "scripts" / "web_screenshot.py"), "--out", str(out),
-                        "--figures", "1"], capture_output=True, text=True, timeout=300,
+                        "--figures", "1"], capture_output=True, text=True, timeout=420,
                        env=dict(os.environ, ROS_DOMAIN_ID=str(random.SystemRandom().randint(110, 200))))
     assert r.returncode == 0, r.stdout + r.stderr
     assert out.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n" and out.stat().st_size > 20000
