@@ -121,10 +121,16 @@ class PlotterGraph:
     def close(self) -> List[int]:
         for p in self.dead:
             p.close()
-        codes = []
+        # Every process is stopped even when one does not stop on Ctrl-C: a
+        # survivor would go on using the machine for the tests after it.
+        codes, failure = [], None
         for p in self.processes:
             try:
                 codes.append(p.interrupt())
+            except RuntimeError as exc:
+                failure = failure or exc
             finally:
                 p.close()
+        if failure is not None:
+            raise failure
         return codes
