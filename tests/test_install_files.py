@@ -42,9 +42,11 @@ def test_flash_target_runs_stcgal_on_the_image():
     import subprocess
     from pathlib import Path
     repo = Path(__file__).resolve().parent.parent
-    out = subprocess.run(["make", "-n", "-C", str(repo / "firmware"), "flash", "PORT=/dev/ttyUSB7",
-                          "PYTHON=python3"], capture_output=True, text=True, check=True).stdout
-    assert re.search(r"python3 -m stcgal -P stc89 -p /dev/ttyUSB7 build/+plotter.ihx", out)
+    # The chip's clock mode goes with the image: 12T for the default one, 6T for CPU6T=1's.
+    for extra, mode, image in (([], "false", "build/+plotter.ihx"), (["CPU6T=1"], "true", "build/+6t/+plotter.ihx")):
+        out = subprocess.run(["make", "-n", "-C", str(repo / "firmware"), "flash", "PORT=/dev/ttyUSB7",
+                              "PYTHON=python3", *extra], capture_output=True, text=True, check=True).stdout
+        assert re.search(rf"python3 -m stcgal -P stc89 -p /dev/ttyUSB7 -o cpu_6t_enabled={mode} {image}", out), out
 
 
 def _installed(package: str) -> Path:
