@@ -13,8 +13,9 @@
  *   HAL_PORT_OUT(v)       write the step/direction/pen port (a byte-wide write)
  *   HAL_PORT2_OUT(v)      phase drive only: write the Y windings' port
  *   HAL_SEGMENT_STARTED(s) a queued command with sequence number s begins
- *   HAL_STEPPER_ABORT()   the motion is forgotten (stepper_abort): for state a
- *                         hand-written interrupt keeps beside the core's
+ *   HAL_STEPPER_SLOW()    the next step takes the interrupt's full path (the
+ *                         motion is forgotten, or a feed hold comes): for the
+ *                         fast-path flags a hand-written interrupt keeps
  *   HAL_CRITICAL_BEGIN/END mask interrupts around a multi-byte read
  *   INLINE                a function expanded where used, with no separate copy */
 #ifndef HAL_H

@@ -230,7 +230,7 @@ static void key_pressed(uint8_t k)
         if (HOLDING) {
             stepper_resume();             /* paused: on from where it stopped */
         } else if (!motion_idle() && !alarm_code) {
-            st_hold = 1;                  /* moving: brake along the path and stop, as `!` does */
+            STEPPER_HOLD();               /* moving: brake along the path and stop, as `!` does */
         }
         return;
     }

@@ -132,14 +132,16 @@ static uint16_t period_of(uint16_t f)
 static uint8_t level_for_period(uint16_t p)
 {
     uint8_t i = RAMP_INDEX(0, SETTING(SET_SHAPE));
+    uint8_t j, hi;
     uint16_t sum = 0;
     for (;;) {
         sum += (uint16_t)((uint8_t)ramp_hold[i] * (uint8_t)SETTING(SET_ACCEL));   /* MUL AB */
-        if (i >= RAMP_INDEX(RAMP_LEVELS - 1, 0) ||
-            !HAL_PERIOD_LONGER(((uint16_t)(ramp_period_hi + RAMP_STEP)[i] << 8) | (ramp_period_lo + RAMP_STEP)[i], p)) {
-            break;
-        }
-        i += RAMP_STEP;
+        j = i + RAMP_STEP;                /* the next level up, if there is one */
+        if (j >= RAMP_SHAPES * RAMP_LEVELS) break;
+        hi = RAMP_HI_SHORT;
+        if (j < RAMP_HI_LEVELS) hi = ramp_period_hi[j];
+        if (!HAL_PERIOD_LONGER(RAMP_PERIOD(hi, ramp_period_lo[j]), p)) break;
+        i = j;
     }
     /* Not ?: (nor a bit in an expression below): SDCC keeps such a
      * condition in a bit of RAM of its own, and the bit segment is full. */

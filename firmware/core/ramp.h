@@ -19,9 +19,22 @@
 
 #define RAMP_ROM const ROM
 
-/* Step period of each level as HAL_PERIOD(machine cycles), low and high byte. */
+/* Step period of each level as HAL_PERIOD(machine cycles), low and high
+ * byte.  The high byte only up to the last period of 256 cycles or more:
+ * from index RAMP_HI_LEVELS on it is RAMP_HI_SHORT (tools/gen_ramp.py
+ * checks the count). */
+#define RAMP_HI_LEVELS 33
+#define RAMP_HI_SHORT ((uint8_t)(HAL_PERIOD(1) >> 8))
+/* The period of a level from its two bytes.  The periods are 12-clock
+ * machine cycles: an image for the chip's 6-clock mode counts twice as
+ * many (HAL_PERIOD(p) is -p or p there, which double as p does). */
+#ifdef CPU_6T
+#define RAMP_PERIOD(hi, lo) ((uint16_t)((((uint16_t)(uint8_t)(hi) << 8) | (uint8_t)(lo)) << 1))
+#else
+#define RAMP_PERIOD(hi, lo) ((uint16_t)(((uint16_t)(uint8_t)(hi) << 8) | (uint8_t)(lo)))
+#endif
 extern RAMP_ROM uint8_t  ramp_period_lo[RAMP_SHAPES * RAMP_LEVELS];
-extern RAMP_ROM uint8_t  ramp_period_hi[RAMP_SHAPES * RAMP_LEVELS];
+extern RAMP_ROM uint8_t  ramp_period_hi[RAMP_HI_LEVELS];
 extern RAMP_ROM uint8_t  ramp_hold[RAMP_SHAPES * RAMP_LEVELS];   /* steps per level at multiplier 1 */
 
 /* The start and top rates of both shapes, steps/s: the top is the

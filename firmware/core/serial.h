@@ -61,7 +61,7 @@ extern volatile FLAG rt_star;
                     rx_arm_b = 1;                                           \
                     break;              /* armed: past the disarm below */  \
                 }                                                           \
-                st_hold = 1;                                                \
+                STEPPER_HOLD();                                             \
             } else if ((c) == RT_RESUME) {                                  \
                 if (!rx_arm_a || rx_arm_b) {                                \
                     rx_arm_a = 1;                                           \

@@ -50,10 +50,6 @@
 #define ST_STATE static
 #endif
 
-FAST int32_t pos_x, pos_y;
-#ifdef ZAXIS
-XDATA int32_t pos_z;
-#endif
 volatile FLAG st_running, st_paused, st_hold;
 IDATA volatile uint16_t st_underruns;
 
@@ -74,12 +70,16 @@ static FAST union {
 #define st_lf st_f.line
 static FLAG st_ybase;                 /* line: Y is the base axis, the one that steps every time */
 #else
+/* Defined in this order, first after the bits, the board's image has the
+ * sign bytes of both F in bit-addressable RAM, where the hand-made step
+ * interrupt tests them with one instruction. */
 ST_STATE FAST int16_t st_lf;            /* line: deviation F */
 ST_STATE FAST int32_t st_af;            /* arc: deviation F = x^2 + y^2 - R^2 */
 #endif
-/* After F: defined in this order, the board's image has st_lf right after
- * the positions, its high byte in bit-addressable RAM, where the hand-made
- * step interrupt tests F's sign with one instruction. */
+FAST int32_t pos_x, pos_y;
+#ifdef ZAXIS
+XDATA int32_t pos_z;
+#endif
 FAST segment_t st_seg;
 FAST volatile uint8_t st_port;
 FAST volatile uint8_t st_level;
@@ -238,7 +238,7 @@ void stepper_zero(void)
 
 void stepper_abort(void)
 {
-    HAL_STEPPER_ABORT();
+    HAL_STEPPER_SLOW();
     st_load = 1;
     st_pulse_x = 0;
     st_pulse_y = 0;
@@ -824,7 +824,9 @@ ramp:
     if (st_stale) {
         st_stale = 0;
         mv = st_level;
-        st_period = ((uint16_t)ramp_period_hi[mv] << 8) | ramp_period_lo[mv];
+        c = RAMP_HI_SHORT;
+        if (mv < RAMP_HI_LEVELS) c = ramp_period_hi[mv];
+        st_period = RAMP_PERIOD(c, ramp_period_lo[mv]);
     }
 done:
     if (st_seg.steps == 0) {

@@ -30,6 +30,9 @@ extern volatile FLAG st_running;              /* timer running or paused mid-que
 extern volatile FLAG st_paused;               /* stopped by a feed hold */
 extern volatile FLAG st_hold;                 /* feed hold requested */
 #define HOLDING st_hold
+/* Request a feed hold (brake along the path and stop): the fast paths of a
+ * hand-written interrupt do not test the flag, so they are left. */
+#define STEPPER_HOLD() do { st_hold = 1; HAL_STEPPER_SLOW(); } while (0)
 extern FAST volatile uint8_t st_port;         /* last value written to the port, without step bits */
 extern FAST volatile uint8_t st_level;        /* current ramp level, as its tables' index RAMP_INDEX */
 extern IDATA volatile uint16_t st_underruns;  /* queue ran dry while motion should continue */

@@ -33,7 +33,7 @@ void host_segment_started(uint16_t seq);
 #define HAL_PORT_OUT(v) (host_port = (uint8_t)(v))
 #define HAL_PORT2_OUT(v) (host_port2 = (uint8_t)(v))
 #define HAL_SEGMENT_STARTED(s) host_segment_started(s)
-#define HAL_STEPPER_ABORT()
+#define HAL_STEPPER_SLOW()
 /* The panel's hardware (panel builds): the caller sets the key held down,
  * the closed limit switches (as BIT_X_DIR / BIT_Y_DIR) and the e-stop; the
  * LCD and the 7-segment display are recorded (core_api.c). */

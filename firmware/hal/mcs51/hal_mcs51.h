@@ -75,8 +75,9 @@ uint8_t hal_key_scan(void);
  * follows takes it, which is the schedule HAL_TIMER_ADVANCE gives. */
 #define HAL_STEPPER_ISR_EXTERNAL 1
 extern volatile __bit st_fast;      /* the interrupt's fast paths: a line cruising, */
-extern volatile __bit st_rampfast;  /* a line on the ramp */
-#define HAL_STEPPER_ABORT() (st_fast = 0, st_rampfast = 0)
+extern volatile __bit st_rampfast;  /* a line on the ramp, */
+extern volatile __bit st_arcfast;   /* an arc cruising; none of them tests the hold */
+#define HAL_STEPPER_SLOW() (st_fast = 0, st_rampfast = 0, st_arcfast = 0)
 __sfr16 __at(0xCBCA) RCAP2;
 __sfr16 __at(0xCDCC) TMR2;
 #define HAL_STEP_PERIOD RCAP2
@@ -137,8 +138,8 @@ __sfr16 __at(0x8C8A) TMR0;
     } while (0)
 #define HAL_TIMER_HALT() do { TR0 = 0; TF0 = 0; } while (0)
 #endif
-#ifndef HAL_STEPPER_ABORT
-#define HAL_STEPPER_ABORT()
+#ifndef HAL_STEPPER_SLOW
+#define HAL_STEPPER_SLOW()
 #endif
 #define HAL_SEGMENT_STARTED(s)
 #define HAL_CRITICAL_BEGIN() (EA = 0)

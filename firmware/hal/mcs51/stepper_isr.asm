@@ -10,11 +10,12 @@
 ;
 ;  What makes it fast: no reload instructions (auto-reload), A parked in
 ;  bank 1's r7 instead of pushed, bank 1 selected for scratch registers
-;  only off the cruising line's path, B and DPTR saved only on the paths
-;  that use them (a segment load, a level change, a new period), and the
-;  commonest cases - a line at cruise (st_fast), a line on the ramp between
-;  level changes (st_rampfast) - run straight through.  Arcs take the
-;  path of the C, transcribed.
+;  only off the fast paths, B and DPTR saved only on the paths that use
+;  them (a segment load, a level change, a new period), and the commonest
+;  cases run straight through: a line at cruise (st_fast), a line on the
+;  ramp between level changes (st_rampfast), an arc at cruise (st_arcfast).
+;  None of those tests the feed hold: a hold clears their flags
+;  (HAL_STEPPER_SLOW, core/stepper.h's STEPPER_HOLD).
 
 	.module stepper_isr
 	.optsdcc -mmcs51 --model-small
@@ -33,11 +34,15 @@ TR2	= 0xca
 LIM_X	= 0x95			; P1.5, X limit at -X, closed = 0
 LIM_Y	= 0x97			; P1.7, Y limit at -Y
 F0	= 0xd5			; PSW.5, restored on exit
-AR7	= 0x0f			; r7 of bank 1
+AR0	= 0x08			; r0, r1, r3 and r7 of bank 1
+AR1	= 0x09
+AR3	= 0x0b
+AR7	= 0x0f
 BANK1	= 0x08			; PSW selecting bank 1 (s51 switches banks only on
 				; a byte write of PSW, not on setb RS0)
 A_0	= 0xe0
 A_1	= 0xe1
+A_2	= 0xe2
 A_3	= 0xe3
 A_7	= 0xe7
 
@@ -55,8 +60,9 @@ SEG_LINE = 1
 SEG_PEN	= 4
 SEG_DWELL = 5
 QUEUE_SLOTS = 7
-;  DWELL_PERIOD, one millisecond in machine cycles: CPU_6T is set (0 or 1)
-;  by the build's clock.s, assembled ahead of this file (firmware/Makefile).
+;  DWELL_PERIOD, one millisecond in machine cycles: CPU_6T (0 or 1) and
+;  RAMP_HI_LEVELS come from the build's clock.s, assembled ahead of this
+;  file (firmware/Makefile).
 	.if CPU_6T
 DWELL_P	= 1843
 	.else
@@ -79,12 +85,14 @@ DWELL_P	= 922
 ;  ebrake     _st_seg + 20
 SEG_SIZE = 22
 
-;  F's sign, bit 7 of st_lf's high byte: st_lf is linked at 0x2d (after
-;  pos_x and pos_y, core/stepper.c), so that byte, 0x2e, is bit-addressable.
-;  tests/test_firmware_asm_equivalence.py checks the address in the map.
-LF_SIGN	= 0x77			; (0x2e - 0x20) * 8 + 7
+;  F's signs, bit 7 of the high bytes of st_lf and st_af: they are linked
+;  first after the bits, st_lf at 0x25 and st_af at 0x27 (core/stepper.c),
+;  so those bytes, 0x26 and 0x2a, are bit-addressable.
+;  tests/test_firmware_asm_equivalence.py checks the addresses in the map.
+LF_SIGN	= 0x37			; (0x26 - 0x20) * 8 + 7
+AF_SIGN	= 0x57			; (0x2a - 0x20) * 8 + 7
 
-	.globl _stepper_isr
+	.globl _stepper_isr, _st_arcfast
 	.globl _pos_x, _pos_y, _st_seg, _st_port, _st_level, _st_underruns
 	.globl _st_hold, _st_running, _st_paused, _rt_limit
 	.globl _st_lf, _st_af, _st_moves, _st_level_left, _st_below, _st_brake_at
@@ -99,13 +107,22 @@ LF_SIGN	= 0x77			; (0x2e - 0x20) * 8 + 7
 	.ds 8
 
 ;  st_port's direction bits as flags, for the pulse's position count; and
-;  st_fast, set while a line cruises and no segment is to be loaded, and
-;  st_rampfast (see not_fast): never with st_load (HAL_STEPPER_ABORT clears
-;  them where stepper.c sets st_load).
+;  the fast paths' flags, never set with st_load or st_hold
+;  (HAL_STEPPER_SLOW clears them where stepper.c sets st_load, and with a
+;  hold): st_fast, set while a line cruises and no segment is to be
+;  loaded, st_rampfast (see not_fast) and st_arcfast (see arc_fast_set),
+;  with st_qpy (the quadrant's move for F >= 0 is a Y move) and st_afinal
+;  (the arc's final quadrant).
 	.area BSEG    (BIT)
 _st_fast::
 	.ds	1
 _st_rampfast::
+	.ds	1
+_st_arcfast::
+	.ds	1
+st_qpy:
+	.ds	1
+st_afinal:
 	.ds	1
 st_xneg:
 	.ds	1
@@ -113,6 +130,162 @@ st_yneg:
 	.ds	1
 
 	.area CSEG    (CODE)
+
+;  An arc's step, both paths: the move (set up by the caller: st_port's
+;  direction bit and st_xneg or st_yneg), the coordinate and F.  A move
+;  from c to c + 1 adds 2c + 1 to F, one from c to c - 1 takes off
+;  2(c - 1) + 1: the 17-bit term 2v + 1 goes to r1:r0 of bank 1 (by address,
+;  so the code works in either bank) with its sign in r3, and arc_add adds
+;  it or arc_sub takes it off.
+;  At cruise (st_arcfast, set by arc_fast_set) the directions are the
+;  quadrant's and stay: the fast path enters here from not_fast with
+;  neither the port nor the bank touched, and leaves through the tests that
+;  can end the fast path, back to the full path.
+arc_x:
+	setb	_st_pulse_x
+	clr	_st_pulse_y
+	jnb	st_xneg,1$
+	mov	a,(_st_seg + 4)		; to c - 1: the term is of c - 1
+	dec	(_st_seg + 4)
+	jnz	1$
+	dec	(_st_seg + 4) + 1
+1$:	mov	a,(_st_seg + 4)
+	setb	c
+	rlc	a
+	mov	AR0,a
+	mov	a,(_st_seg + 4) + 1
+	rlc	a
+	mov	AR1,a
+	subb	a,ACC
+	mov	AR3,a
+	jb	st_xneg,arc_sub
+	inc	(_st_seg + 4)		; to c + 1: the term is of c
+	mov	a,(_st_seg + 4)
+	jnz	arc_add
+	inc	(_st_seg + 4) + 1
+arc_add:
+	mov	a,_st_af
+	add	a,AR0
+	mov	_st_af,a
+	mov	a,_st_af + 1
+	addc	a,AR1
+	mov	_st_af + 1,a
+	mov	a,_st_af + 2
+	addc	a,AR3
+	mov	_st_af + 2,a
+	mov	a,_st_af + 3
+	addc	a,AR3
+	mov	_st_af + 3,a
+	jb	_st_arcfast,af_tail
+	ljmp	arc_moved
+arc_sub:
+	clr	c
+	mov	a,_st_af
+	subb	a,AR0
+	mov	_st_af,a
+	mov	a,_st_af + 1
+	subb	a,AR1
+	mov	_st_af + 1,a
+	mov	a,_st_af + 2
+	subb	a,AR3
+	mov	_st_af + 2,a
+	mov	a,_st_af + 3
+	subb	a,AR3
+	mov	_st_af + 3,a
+	jb	_st_arcfast,af_tail
+	ljmp	arc_moved
+arc_y:
+	clr	_st_pulse_x
+	setb	_st_pulse_y
+	jnb	st_yneg,1$
+	mov	a,(_st_seg + 6)
+	dec	(_st_seg + 6)
+	jnz	1$
+	dec	(_st_seg + 6) + 1
+1$:	mov	a,(_st_seg + 6)
+	setb	c
+	rlc	a
+	mov	AR0,a
+	mov	a,(_st_seg + 6) + 1
+	rlc	a
+	mov	AR1,a
+	subb	a,ACC
+	mov	AR3,a
+	jb	st_yneg,arc_sub
+	inc	(_st_seg + 6)
+	mov	a,(_st_seg + 6)
+	jnz	arc_add
+	inc	(_st_seg + 6) + 1
+	sjmp	arc_add
+af_tail:
+	; The fast path's end tests, those of the full path for the axis that
+	; moved: in the final quadrant, has it reached its end coordinate; in
+	; another, has the coordinate that ends the quadrant reached 0 (the
+	; other axis's moves cannot change it, and arc_fast_set saw it not 0).
+	jb	_st_pulse_x,afx_tail
+	jb	st_afinal,afy_final
+	jb	_st_end_x0,af_cruise
+	mov	a,(_st_seg + 6)
+	orl	a,(_st_seg + 6) + 1
+	jnz	af_cruise
+	mov	PSW,#BANK1		; the full path's end test (st_arcfast stays)
+	ljmp	arc_y0
+afy_final:
+	mov	a,(_st_seg + 6)
+	cjne	a,(_st_seg + 10),af_cruise
+	mov	a,(_st_seg + 6) + 1
+	cjne	a,(_st_seg + 10) + 1,af_cruise
+	sjmp	af_slow
+afx_tail:
+	jb	st_afinal,afx_final
+	jnb	_st_end_x0,af_cruise
+	mov	a,(_st_seg + 4)
+	orl	a,(_st_seg + 4) + 1
+	jnz	af_cruise
+	mov	PSW,#BANK1
+	ljmp	arc_x0
+afx_final:
+	mov	a,(_st_seg + 4)
+	cjne	a,(_st_seg + 8),af_cruise
+	mov	a,(_st_seg + 4) + 1
+	cjne	a,(_st_seg + 8) + 1,af_cruise
+af_slow:
+	; The full path's tests take over from here, and keep the step's count.
+	clr	_st_arcfast
+	mov	PSW,#BANK1
+	ljmp	arc_moved
+af_cruise:
+	djnz	_st_cruise_lo,af_exit
+	ljmp	cruise_lo_out
+af_exit:
+	xch	a,AR7
+	pop	PSW
+	reti
+
+;  The upper bytes of the position at A (pos_x + 1 or pos_y + 1), when the
+;  low byte carries or borrows; then back to the pulse.
+carry:
+	mov	PSW,#BANK1
+	mov	r0,a
+	inc	@r0
+	cjne	@r0,#0,1$
+	inc	r0
+	inc	@r0
+	cjne	@r0,#0,1$
+	inc	r0
+	inc	@r0
+1$:	ljmp	pulse_end
+borrow:
+	mov	PSW,#BANK1
+	mov	r0,a
+	dec	@r0
+	cjne	@r0,#0xff,1$
+	inc	r0
+	dec	@r0
+	cjne	@r0,#0xff,1$
+	inc	r0
+	dec	@r0
+1$:	ljmp	pulse_end
 
 ;  Rare cases of the code below, placed before it so that its branches
 ;  reach them.
@@ -145,18 +318,14 @@ no_limit:
 	inc	_pos_x
 	mov	a,_pos_x
 	jnz	pulse_end
-	mov	PSW,#BANK1
-	mov	r0,#(_pos_x + 1)
-	lcall	carry
-	sjmp	pulse_end
+	mov	a,#(_pos_x + 1)
+	sjmp	carry
 x_minus:
 	mov	a,_pos_x
 	dec	_pos_x
 	jnz	pulse_end
-	mov	PSW,#BANK1
-	mov	r0,#(_pos_x + 1)
-	lcall	borrow
-	sjmp	pulse_end
+	mov	a,#(_pos_x + 1)
+	sjmp	borrow
 pulse_not_x:
 	jnb	_st_pulse_y,pulse_done
 	orl	P1,#Y_STEP
@@ -164,23 +333,19 @@ pulse_not_x:
 	inc	_pos_y
 	mov	a,_pos_y
 	jnz	pulse_end
-	mov	PSW,#BANK1
-	mov	r0,#(_pos_y + 1)
-	lcall	carry
-	sjmp	pulse_end
+	mov	a,#(_pos_y + 1)
+	sjmp	carry
 y_minus:
 	mov	a,_pos_y
 	dec	_pos_y
 	jnz	pulse_end
-	mov	PSW,#BANK1
-	mov	r0,#(_pos_y + 1)
-	lcall	borrow
+	mov	a,#(_pos_y + 1)
+	sjmp	borrow
 pulse_end:
 	mov	P1,_st_port
 pulse_done:
 	; st_fast: a line at cruise (nor a segment to load: see below).
 	jnb	_st_fast,not_fast
-	jb	_st_hold,run_holding
 	; Line: F >= 0 steps X and adds -|dy| (negated at the load), F < 0
 	; steps Y and adds |dx| (line_step below, in full).
 	jb	LF_SIGN,line_y
@@ -208,12 +373,23 @@ line_y:
 	djnz	_st_cruise_lo,exit
 	sjmp	cruise_lo_out
 not_fast:
+	jnb	_st_arcfast,not_arc_fast
+	; An arc at cruise (arc_fast_set): F's sign picks the quadrant's move,
+	; whose direction st_xneg or st_yneg holds already.
+	jb	AF_SIGN,af_neg
+	jb	st_qpy,af_y
+af_x:
+	ljmp	arc_x
+af_neg:
+	jb	st_qpy,af_x
+af_y:
+	ljmp	arc_y
+not_arc_fast:
 	; st_rampfast: a line on the ramp whose last step changed no level.
 	; Its brake-or-climb choice stands (steps and brake_at both count down
-	; by one a step, the levels and the hold stay) until the level's
-	; steps run out: then, or in a hold, the full path.
+	; by one a step, the levels stay) until the level's steps run out: then
+	; the full path.
 	jnb	_st_rampfast,not_ramp_fast
-	jb	_st_hold,not_ramp_fast
 	mov	a,_st_level_left + 1
 	jnz	ramp_fast
 	mov	a,_st_level_left
@@ -251,25 +427,6 @@ run_holding:
 cruise_held_near:
 	ljmp	cruise_held
 
-;  The upper bytes of the position at r0, when the low byte carries or borrows.
-carry:
-	inc	@r0
-	cjne	@r0,#0,1$
-	inc	r0
-	inc	@r0
-	cjne	@r0,#0,1$
-	inc	r0
-	inc	@r0
-1$:	ret
-borrow:
-	dec	@r0
-	cjne	@r0,#0xff,1$
-	inc	r0
-	dec	@r0
-	cjne	@r0,#0xff,1$
-	inc	r0
-	dec	@r0
-1$:	ret
 
 ;  A line step on the ramp with its choice made (st_rampfast): the line
 ;  step, count, ramp and done of the full path without the choice.
@@ -411,91 +568,24 @@ arc_fmv:
 	jnz	arc_go
 	mov	r2,(_st_seg + 1)
 arc_go:
-	; r1:r0 = c, the coordinate before a + move, minus it before a - move
+	; The move r2 (one-hot MV_*): its direction, then the step (arc_x, arc_y).
 	mov	a,r2
-	anl	a,#(MV_XP | MV_XN)
-	jz	arc_y
-	setb	_st_pulse_x
-	clr	_st_pulse_y
-	mov	a,r2
-	anl	a,#(MV_XN | MV_YN)
-	jz	arc_xp
-	mov	a,(_st_seg + 4)
-	add	a,#0xff
-	mov	(_st_seg + 4),a
-	cpl	a
-	mov	r0,a
-	mov	a,(_st_seg + 4) + 1
-	addc	a,#0xff
-	mov	(_st_seg + 4) + 1,a
-	cpl	a
-	mov	r1,a
-	orl	_st_port,#X_DIR
-	setb	st_xneg
-	sjmp	arc_f
-arc_xp:
-	mov	r0,(_st_seg + 4)
-	mov	r1,(_st_seg + 4) + 1
-	inc	(_st_seg + 4)
-	mov	a,(_st_seg + 4)
-	jnz	arc_xp1
-	inc	(_st_seg + 4) + 1
-arc_xp1:
+	jnb	A_0,1$
 	anl	_st_port,#~X_DIR
 	clr	st_xneg
-	sjmp	arc_f
-arc_y:
-	clr	_st_pulse_x
-	setb	_st_pulse_y
-	mov	a,r2
-	anl	a,#(MV_XN | MV_YN)
-	jz	arc_yp
-	mov	a,(_st_seg + 6)
-	add	a,#0xff
-	mov	(_st_seg + 6),a
-	cpl	a
-	mov	r0,a
-	mov	a,(_st_seg + 6) + 1
-	addc	a,#0xff
-	mov	(_st_seg + 6) + 1,a
-	cpl	a
-	mov	r1,a
-	orl	_st_port,#Y_DIR
-	setb	st_yneg
-	sjmp	arc_f
-arc_yp:
-	mov	r0,(_st_seg + 6)
-	mov	r1,(_st_seg + 6) + 1
-	inc	(_st_seg + 6)
-	mov	a,(_st_seg + 6)
-	jnz	arc_yp1
-	inc	(_st_seg + 6) + 1
-arc_yp1:
+	ljmp	arc_x
+1$:	jnb	A_1,2$
+	orl	_st_port,#X_DIR
+	setb	st_xneg
+	ljmp	arc_x
+2$:	jnb	A_2,3$
 	anl	_st_port,#~Y_DIR
 	clr	st_yneg
-arc_f:
-	; F += 2c + 1, c sign-extended to 32 bits
-	mov	a,r0
-	setb	c
-	rlc	a
-	mov	r0,a
-	mov	a,r1
-	rlc	a
-	mov	r1,a
-	subb	a,ACC			; 0 - sign
-	mov	r3,a
-	mov	a,_st_af
-	add	a,r0
-	mov	_st_af,a
-	mov	a,_st_af + 1
-	addc	a,r1
-	mov	_st_af + 1,a
-	mov	a,_st_af + 2
-	addc	a,r3
-	mov	_st_af + 2,a
-	mov	a,_st_af + 3
-	addc	a,r3
-	mov	_st_af + 3,a
+	ljmp	arc_y
+3$:	orl	_st_port,#Y_DIR
+	setb	st_yneg
+	ljmp	arc_y
+arc_moved:
 	mov	P1,_st_port		; direction set a whole period before its pulse
 	mov	a,(_st_seg + 15)
 	jz	arc_final
@@ -504,6 +594,7 @@ arc_f:
 	mov	a,(_st_seg + 6)
 	orl	a,(_st_seg + 6) + 1
 	jnz	in_quadrant
+arc_y0:
 	mov	r0,(_st_seg + 4)
 	mov	r1,(_st_seg + 4) + 1
 	sjmp	arc_endtest
@@ -511,6 +602,7 @@ arc_endx0:
 	mov	a,(_st_seg + 4)
 	orl	a,(_st_seg + 4) + 1
 	jnz	in_quadrant
+arc_x0:
 	mov	r0,(_st_seg + 6)
 	mov	r1,(_st_seg + 6) + 1
 arc_endtest:
@@ -524,6 +616,7 @@ arc_endtest:
 arc_endneg:
 	jb	_st_end_neg,turn
 in_quadrant:
+	clr	_st_arcfast		; (the coordinate that ends it is 0: no turn yet)
 	jnb	_st_cruising,in_quadrant_count
 	ljmp	cruise_step
 in_quadrant_count:
@@ -531,7 +624,7 @@ in_quadrant_count:
 	jnz	1$
 	mov	a,(_st_seg + 12)
 	cjne	a,#1,1$
-	sjmp	ramp			; an estimate: the count runs out at the end, not before
+	ljmp	ramp			; an estimate: the count runs out at the end, not before
 1$:	ljmp	count
 arc_final:
 	; An axis that reached its end coordinate moves no more.
@@ -553,14 +646,20 @@ arc_final_done:
 	ljmp	cruise_step
 
 turn:
-	; The arc has crossed into the next quadrant.
+	; The arc has crossed into the next quadrant: F0 says whether the step
+	; that crossed moved the axis that ended it (else it went through the
+	; centre, radius 1), which keeps its direction in the next one.
+	mov	c,_st_pulse_x
+	jb	_st_end_x0,9$
+	cpl	c
+9$:	mov	F0,c
 	mov	a,(_st_seg + 14)
 	lcall	turns_of
 	swap	a
 	anl	a,#0x07
 	mov	(_st_seg + 14),a
 	lcall	enter_quadrant
-	djnz	(_st_seg + 15),in_quadrant
+	djnz	(_st_seg + 15),turn_on
 	; Final quadrant: the remaining count is now exact, and the moves
 	; towards the end are known.
 	mov	r0,#(_st_seg + 8)
@@ -595,6 +694,24 @@ turn_steps:
 	mov	(_st_seg + 12) + 1,a
 	mov	(_st_seg + 1),r6
 	sjmp	ramp
+turn_on:
+	; If the fast path ran, it goes on: F >= 0 moves the other axis, and the
+	; axis that did not end the last quadrant is reversed (the quadrants'
+	; moves, turn by turn).  Not if the crossing step went through the
+	; centre.  (Had it not run, the rest of this cruise takes the full path.)
+	jnb	F0,turn_off
+	jnb	_st_arcfast,turn_off
+	cpl	st_qpy
+	jnb	_st_end_x0,2$		; this quadrant ends where x = 0, the last where y = 0
+	cpl	st_xneg
+	xrl	_st_port,#X_DIR
+	sjmp	3$
+2$:	cpl	st_yneg
+	xrl	_st_port,#Y_DIR
+3$:	mov	P1,_st_port
+	ljmp	cruise_step
+turn_off:
+	ljmp	in_quadrant
 
 count:
 	; steps--
@@ -605,8 +722,8 @@ count:
 ramp:
 	; Brake to the exit level in time, else climb to the cruise level.
 	clr	_st_cruising
-	clr	_st_fast
-	clr	_st_rampfast
+	clr	_st_fast		; (st_rampfast is never set here)
+	clr	_st_arcfast
 	mov	a,_st_level
 	add	a,#0xfe
 	jnc	ramp_not_brake		; level 0: never brakes
@@ -656,17 +773,9 @@ ramp_ll:
 ramp_stale:
 	jnb	_st_stale,done
 period_new:
-	clr	_st_stale
 	push	DPL
 	push	DPH
-	mov	dptr,#_ramp_period_lo
-	mov	a,_st_level
-	movc	a,@a+dptr
-	mov	RCAP2L,a
-	mov	dptr,#_ramp_period_hi
-	mov	a,_st_level
-	movc	a,@a+dptr
-	mov	RCAP2H,a
+	lcall	period_set
 	pop	DPH
 	pop	DPL
 done:
@@ -676,6 +785,7 @@ done:
 	setb	_st_load
 	clr	_st_fast
 	clr	_st_rampfast
+	clr	_st_arcfast
 done_exit:
 	ljmp	exit
 
@@ -710,21 +820,11 @@ cruise_set:
 	addc	a,#0xff
 	mov	_st_cruise_hi,a
 	setb	_st_cruising
-	mov	c,_st_line
+	mov	c,_st_line		; the fast paths do not test the hold
+	anl	c,/_st_hold
 	mov	_st_fast,c
+	lcall	arc_fast_set
 	sjmp	done
-
-;  hold steps of level A: ramp_hold[A] * setting[SET_ACCEL] into r1:r0
-;  (B and DPTR saved by the caller)
-hold_steps:
-	mov	dptr,#_ramp_hold
-	movc	a,@a+dptr
-	mov	r1,#_setting
-	mov	b,@r1
-	mul	ab
-	mov	r0,a
-	mov	r1,b
-	ret
 
 level_change:
 	push	Bs
@@ -734,6 +834,7 @@ level_change:
 	; braking: one level down
 	dec	_st_level
 	dec	_st_level
+	lcall	period_set
 	mov	a,_st_level
 	lcall	hold_steps
 	mov	_st_level_left,r0
@@ -747,7 +848,7 @@ level_change:
 	mov	a,@r1
 	subb	a,_st_level_left + 1
 	mov	@r1,a
-	ljmp	level_stale
+	ljmp	level_done
 level_up:
 	mov	a,_st_level
 	lcall	hold_steps
@@ -812,7 +913,11 @@ level_stay:
 	mov	_st_level_left + 1,r3
 	sjmp	level_brake_add
 level_climb:
-	; brake_at += level_left; below += level_left; level up; level_left = hold
+	; level up (its period first); brake_at += level_left;
+	; below += level_left; level_left = hold
+	inc	_st_level
+	inc	_st_level
+	lcall	period_set
 	mov	a,_st_brake_at
 	add	a,_st_level_left
 	mov	_st_brake_at,a
@@ -827,11 +932,8 @@ level_climb:
 	mov	a,@r0
 	addc	a,_st_level_left + 1
 	mov	@r0,a
-	inc	_st_level
-	inc	_st_level
 	mov	_st_level_left,r4
 	mov	_st_level_left + 1,r5
-	setb	_st_stale
 level_brake_add:
 	mov	a,_st_brake_at
 	add	a,_st_level_left
@@ -840,13 +942,51 @@ level_brake_add:
 	addc	a,_st_level_left + 1
 	mov	_st_brake_at + 1,a
 	sjmp	level_done
-level_stale:
-	setb	_st_stale
 level_done:
 	pop	DPH
 	pop	DPL
 	pop	Bs
 	ljmp	ramp_stale
+
+;  The period of the level into RCAP2, for the overflow that ends this
+;  step: before it comes, or the period drifts (level_change calls this as
+;  soon as the level is known).  Both bytes in consecutive instructions,
+;  so that an overflow between them (a mixed period) is all but ruled out.
+;  DPTR saved by the caller; r2 used.
+period_set:
+	clr	_st_stale
+	mov	a,_st_level		; at RAMP_HI_LEVELS and above the high
+	add	a,#(0x100 - RAMP_HI_LEVELS)	; byte is not tabled (core/ramp.h)
+	mov	a,#0xff
+	jc	1$
+	mov	dptr,#_ramp_period_hi
+	mov	a,_st_level
+	movc	a,@a+dptr
+1$:	mov	r2,a
+	mov	dptr,#_ramp_period_lo
+	mov	a,_st_level
+	movc	a,@a+dptr
+	.if CPU_6T			; twice the table's 12-clock cycles (core/ramp.h)
+	add	a,ACC
+	xch	a,r2
+	rlc	a
+	xch	a,r2
+	.endif
+	mov	RCAP2L,a
+	mov	RCAP2H,r2
+	ret
+
+;  hold steps of level A: ramp_hold[A] * setting[SET_ACCEL] into r1:r0
+;  (B and DPTR saved by the caller)
+hold_steps:
+	mov	dptr,#_ramp_hold
+	movc	a,@a+dptr
+	mov	r1,#_setting
+	mov	b,@r1
+	mul	ab
+	mov	r0,a
+	mov	r1,b
+	ret
 
 load_seg:
 	; Copy the next queued segment into st_seg and prepare it.
@@ -872,8 +1012,12 @@ load_copy:
 	addc	a,#>_queue
 	mov	DPH,a
 	mov	r0,#_st_seg
-	mov	r3,#SEG_SIZE
-load_byte:
+	mov	r3,#(SEG_SIZE / 2)	; two bytes a turn: the load runs into the
+load_byte:				; next period, and this is most of it
+	movx	a,@dptr
+	mov	@r0,a
+	inc	dptr
+	inc	r0
 	movx	a,@dptr
 	mov	@r0,a
 	inc	dptr
@@ -978,9 +1122,7 @@ load_brake:
 	mov	a,r5
 	addc	a,_st_level_left + 1
 	mov	_st_brake_at + 1,a
-	clr	_st_cruising
-	clr	_st_fast
-	clr	_st_rampfast
+	clr	_st_cruising		; (the fast paths' flags are never set with st_load)
 	setb	_st_stale
 	pop	DPH
 	pop	DPL
@@ -1020,6 +1162,75 @@ end_diff:
 	ret
 1$:	orl	a,r2
 	clr	c
+	ret
+
+;  st_arcfast, when an arc cruises where the fast path (arc_fast) steps
+;  as the full one would: in the final quadrant while both moves of the
+;  quadrant still head towards the end; in another while the coordinate
+;  that ends the quadrant is not 0.  The fast path then keeps the
+;  quadrant's directions, set here for both axes and written to the port
+;  a whole period before a pulse needs them (unless the pending pulse's
+;  axis would change direction: a radius of 1, through the centre).
+arc_fast_set:
+	clr	_st_arcfast
+	mov	c,_st_cruising
+	anl	c,/_st_line
+	anl	c,/_st_hold
+	jnc	afs_ret
+	mov	a,_st_moves		; both moves: st_moves' two nibbles
+	swap	a
+	orl	a,_st_moves
+	anl	a,#0x0f
+	mov	r2,a
+	clr	st_afinal
+	mov	a,(_st_seg + 15)
+	jnz	afs_middle
+	setb	st_afinal
+	mov	a,r2
+	anl	a,(_st_seg + 1)
+	xrl	a,r2
+	jnz	afs_ret
+	sjmp	afs_dirs
+afs_middle:
+	mov	r0,#(_st_seg + 6)
+	jnb	_st_end_x0,1$
+	mov	r0,#(_st_seg + 4)
+1$:	mov	a,@r0
+	inc	r0
+	orl	a,@r0
+	jz	afs_ret
+afs_dirs:
+	mov	a,r2			; MV_XN and MV_YN are X_DIR and Y_DIR
+	mov	c,A_1
+	jnb	_st_pulse_x,2$
+	jnb	st_xneg,3$
+	cpl	c
+3$:	jc	afs_ret
+2$:	mov	c,A_3
+	jnb	_st_pulse_y,afs_go
+	jnb	st_yneg,5$
+	cpl	c
+5$:	jc	afs_ret
+afs_go:
+	mov	a,_st_moves		; both moves of the quadrant
+	swap	a
+	orl	a,_st_moves
+	mov	c,A_1
+	mov	st_xneg,c
+	mov	c,A_3
+	mov	st_yneg,c
+	anl	a,#(X_DIR | Y_DIR)
+	xch	a,_st_port
+	anl	a,#~(X_DIR | Y_DIR)
+	orl	a,_st_port
+	mov	_st_port,a
+	mov	P1,a
+	mov	a,_st_moves		; F >= 0 moves Y
+	anl	a,#(MV_YP | MV_YN)
+	add	a,#0xff
+	mov	st_qpy,c
+	setb	_st_arcfast
+afs_ret:
 	ret
 
 ;  An arc enters quadrant st_seg.quadrant: its moves and its end.
