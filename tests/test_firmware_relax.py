@@ -37,6 +37,13 @@ def test_only_cseg_calls_and_jumps_are_candidates():
     assert [lines[k].split(";")[0].split() for k in got] == [["lcall", "_g"], ["00101$:", "ljmp", "00102$"]]
 
 
+def test_jump_table_entries_stay_long():
+    """SDCC's switch indexes a table of ljmp in steps of three bytes."""
+    source = ("\t.area CSEG    (CODE)\n_f:\n\tmov\tdptr,#00120$\n\tjmp\t@a+dptr\n"
+              "00120$:\n\tljmp\t00101$\n\tljmp\t00102$\n00101$:\n\tljmp\t00102$\n00102$:\n\tret\n")
+    assert relax.candidates(source) == [8]         # the jump after the table, not its entries
+
+
 def test_shorten_keeps_labels_and_comments():
     got = relax.shorten(SOURCE, relax.candidates(SOURCE)).splitlines()
     assert got[7] == "\tacall\t_g\t; ljmp in a comment"

@@ -18,7 +18,7 @@ the image is linked, so, as a linker relaxing its branches would:
    only lengthens code, so this ends).
 
 The vectors, the start-up areas and anything outside CSEG keep their long
-forms: their layout is fixed.  The image the linker writes at the end is
+forms, as do the entries of a jump table: their layout is fixed.  The image the linker writes at the end is
 checked once more: it must report no page error.  An image over
 --code-size is linked once more without the limit, to say by how much.
 """
@@ -40,15 +40,26 @@ LABEL = re.compile(r"^\s*([A-Za-z_.$][\w.$]*|\d+\$)::?")
 
 
 def candidates(text):
-    """Line numbers (0-based) of the long calls and jumps in CSEG."""
-    out, area = [], None
-    for k, line in enumerate(text.splitlines()):
+    """Line numbers (0-based) of the long calls and jumps in CSEG, but for
+    the entries of a jump table: the run of `ljmp` after a label that is
+    loaded into DPTR (SDCC's switch: `mov dptr,#table` ... `jmp @a+dptr`
+    indexes it in steps of three bytes)."""
+    lines = text.splitlines()
+    tables = set(re.findall(r"\bmov\s+dptr\s*,\s*#\s*([\w$]+)", text, re.I))
+    out, area, in_table = [], None, False
+    for k, line in enumerate(lines):
         m = AREA.match(line)
         if m:
             area = m.group(1)
             continue
         code = line.split(";", 1)[0]
-        if area == "CSEG" and INSN.match(code):
+        lab = LABEL.match(code)
+        if lab:
+            in_table = lab.group(1) in tables
+        ins = INSN.match(code)
+        if in_table and not (ins and ins.group(2) == "ljmp") and code.strip() and not lab:
+            in_table = False
+        if area == "CSEG" and ins and not in_table:
             out.append(k)
     return out
 
