@@ -16,6 +16,8 @@
  *   HAL_STEPPER_SLOW()    the next step takes the interrupt's full path (the
  *                         motion is forgotten, or a feed hold comes): for the
  *                         fast-path flags a hand-written interrupt keeps
+ *   HAL_MUL16U(a, b), HAL_MUL16S(a, b)  the 32-bit product of two 16-bit
+ *                         values, unsigned or signed (as uint32_t)
  *   HAL_CRITICAL_BEGIN/END mask interrupts around a multi-byte read
  *   INLINE                a function expanded where used, with no separate copy */
 #ifndef HAL_H

@@ -45,7 +45,7 @@ static void arc_sqrt(void)
     arc_r = 0;
     do {
         arc_r |= bit;
-        if ((uint32_t)arc_r * arc_r > arc_t) {
+        if (HAL_MUL16U(arc_r, arc_r) > arc_t) {
             arc_r ^= bit;
         }
         bit >>= 1;
@@ -288,7 +288,7 @@ static void clear_t(void)
 /* arc_t += a * b */
 static void add_product(int16_t a, int16_t b)
 {
-    arc_t += (uint32_t)((int32_t)a * b);
+    arc_t += HAL_MUL16S(a, b);
 }
 
 #ifndef INTERP_COMPARE

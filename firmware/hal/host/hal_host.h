@@ -34,6 +34,8 @@ void host_segment_started(uint16_t seq);
 #define HAL_PORT2_OUT(v) (host_port2 = (uint8_t)(v))
 #define HAL_SEGMENT_STARTED(s) host_segment_started(s)
 #define HAL_STEPPER_SLOW()
+#define HAL_MUL16U(a, b) ((uint32_t)(uint16_t)(a) * (uint16_t)(b))
+#define HAL_MUL16S(a, b) ((uint32_t)((int32_t)(int16_t)(a) * (int16_t)(b)))
 /* The panel's hardware (panel builds): the caller sets the key held down,
  * the closed limit switches (as BIT_X_DIR / BIT_Y_DIR) and the e-stop; the
  * LCD and the 7-segment display are recorded (core_api.c). */

@@ -141,6 +141,12 @@ __sfr16 __at(0x8C8A) TMR0;
 #ifndef HAL_STEPPER_SLOW
 #define HAL_STEPPER_SLOW()
 #endif
+/* 16 x 16 -> 32-bit products by hal/mcs51/mul16.asm (four MUL AB, not the
+ * library's 32 x 32 multiply). */
+uint32_t mul16u(uint16_t a, uint16_t b);
+uint32_t mul16s(int16_t a, int16_t b);
+#define HAL_MUL16U(a, b) mul16u(a, b)
+#define HAL_MUL16S(a, b) mul16s(a, b)
 #define HAL_SEGMENT_STARTED(s)
 #define HAL_CRITICAL_BEGIN() (EA = 0)
 #define HAL_CRITICAL_END() (EA = 1)
