@@ -112,7 +112,7 @@ AF_SIGN	= 0x57			; (0x2a - 0x20) * 8 + 7
 ;  hold): st_fast, set while a line cruises and no segment is to be
 ;  loaded, st_rampfast (see not_fast) and st_arcfast (see arc_fast_set),
 ;  with st_qpy (the quadrant's move for F >= 0 is a Y move) and st_afinal
-;  (the arc's final quadrant).
+;  (the arc's final quadrant), and st_rampup (st_rampfast's choice: climb).
 	.area BSEG    (BIT)
 _st_fast::
 	.ds	1
@@ -123,6 +123,8 @@ _st_arcfast::
 st_qpy:
 	.ds	1
 st_afinal:
+	.ds	1
+st_rampup:
 	.ds	1
 st_xneg:
 	.ds	1
@@ -387,14 +389,9 @@ af_y:
 not_arc_fast:
 	; st_rampfast: a line on the ramp whose last step changed no level.
 	; Its brake-or-climb choice stands (steps and brake_at both count down
-	; by one a step, the levels stay) until the level's steps run out: then
-	; the full path.
-	jnb	_st_rampfast,not_ramp_fast
-	mov	a,_st_level_left + 1
-	jnz	ramp_fast
-	mov	a,_st_level_left
-	add	a,#0xfe
-	jc	ramp_fast
+	; by one a step, the levels stay) until the level's steps run out,
+	; and then it is st_rampup's: the level changes (ramp_level).
+	jb	_st_rampfast,ramp_fast
 not_ramp_fast:
 	clr	_st_rampfast
 	mov	PSW,#BANK1
@@ -464,7 +461,10 @@ line_step:
 	dec	_st_level_left
 	jnz	5$
 	dec	_st_level_left + 1
-5$:	mov	a,(_st_seg + 12)
+5$:	mov	a,_st_level_left
+	orl	a,_st_level_left + 1
+	jz	ramp_level
+	mov	a,(_st_seg + 12)
 	orl	a,(_st_seg + 12) + 1
 	jnz	6$
 	setb	_st_load
@@ -475,6 +475,14 @@ line_step:
 8$:	jnb	_st_cruising,7$
 	ljmp	cruise_step
 7$:	ljmp	count
+ramp_level:
+	; The level's steps have run out: its change, as the full path's ramp
+	; would make it (the same choice), straight from here.
+	clr	_st_rampfast
+	mov	PSW,#BANK1
+	mov	c,st_rampup
+	mov	F0,c
+	ljmp	level_change
 
 run_holding_far:
 	mov	PSW,#BANK1
@@ -770,6 +778,8 @@ ramp_ll:
 	jb	_st_hold,ramp_stale
 	mov	c,_st_line
 	mov	_st_rampfast,c
+	mov	c,F0			; the choice, for ramp_level
+	mov	st_rampup,c
 ramp_stale:
 	jnb	_st_stale,done
 period_new:
