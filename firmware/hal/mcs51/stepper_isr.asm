@@ -257,8 +257,19 @@ af_slow:
 	mov	PSW,#BANK1
 	ljmp	arc_moved
 af_cruise:
+	jnb	_st_cruising,af_ramp
 	djnz	_st_cruise_lo,af_exit
 	ljmp	cruise_lo_out
+af_ramp:
+	; On the ramp (set by ramp_ll): the count and the ramp with the choice
+	; made, as a line's st_rampfast path does; the last steps (a quadrant's
+	; count is an estimate that stops at 1) take the full path.
+	mov	a,(_st_seg + 12) + 1
+	jnz	1$
+	mov	a,(_st_seg + 12)
+	add	a,#0xfd
+	jnc	af_slow
+1$:	ljmp	ramp_counts
 af_exit:
 	xch	a,AR7
 	pop	PSW
@@ -448,7 +459,8 @@ line_step:
 	mov	a,_st_lf + 1
 	addc	a,(_st_seg + 4) + 1
 2$:	mov	_st_lf + 1,a
-	jnb	_st_rampfast,8$
+	jnb	_st_rampfast,line_full
+ramp_counts:				; (an arc's fast path on the ramp too)
 	mov	a,(_st_seg + 12)
 	dec	(_st_seg + 12)
 	jnz	3$
@@ -472,13 +484,15 @@ line_step:
 6$:	xch	a,AR7
 	pop	PSW
 	reti
-8$:	jnb	_st_cruising,7$
+line_full:
+	jnb	_st_cruising,7$
 	ljmp	cruise_step
 7$:	ljmp	count
 ramp_level:
 	; The level's steps have run out: its change, as the full path's ramp
 	; would make it (the same choice), straight from here.
 	clr	_st_rampfast
+	clr	_st_arcfast
 	mov	PSW,#BANK1
 	mov	c,st_rampup
 	mov	F0,c
@@ -709,6 +723,7 @@ turn_on:
 	; centre.  (Had it not run, the rest of this cruise takes the full path.)
 	jnb	F0,turn_off
 	jnb	_st_arcfast,turn_off
+	jnb	_st_cruising,turn_off	; on the ramp: ramp_ll sets it up again
 	cpl	st_qpy
 	jnb	_st_end_x0,2$		; this quadrant ends where x = 0, the last where y = 0
 	cpl	st_xneg
@@ -780,6 +795,9 @@ ramp_ll:
 	mov	_st_rampfast,c
 	mov	c,F0			; the choice, for ramp_level
 	mov	st_rampup,c
+	jb	_st_line,ramp_stale
+	jb	_st_stale,ramp_stale	; (not in the long step that loaded the arc)
+	lcall	arc_fast_ramp		; an arc: its fast path on the ramp
 ramp_stale:
 	jnb	_st_stale,done
 period_new:
@@ -1174,19 +1192,21 @@ end_diff:
 	clr	c
 	ret
 
-;  st_arcfast, when an arc cruises where the fast path (arc_fast) steps
-;  as the full one would: in the final quadrant while both moves of the
-;  quadrant still head towards the end; in another while the coordinate
-;  that ends the quadrant is not 0.  The fast path then keeps the
-;  quadrant's directions, set here for both axes and written to the port
-;  a whole period before a pulse needs them (unless the pending pulse's
-;  axis would change direction: a radius of 1, through the centre).
+;  st_arcfast, when an arc cruises (or, from arc_fast_ramp, is on the
+;  ramp with its choice made: ramp_ll) where the fast path steps as the
+;  full one would: in the final quadrant while both moves of the quadrant
+;  still head towards the end; in another while the coordinate that ends
+;  the quadrant is not 0.  The fast path then keeps the quadrant's
+;  directions, set here for both axes and written to the port a whole
+;  period before a pulse needs them (unless the pending pulse's axis would
+;  change direction: a radius of 1, through the centre).
 arc_fast_set:
 	clr	_st_arcfast
 	mov	c,_st_cruising
 	anl	c,/_st_line
 	anl	c,/_st_hold
 	jnc	afs_ret
+arc_fast_ramp:
 	mov	a,_st_moves		; both moves: st_moves' two nibbles
 	swap	a
 	orl	a,_st_moves
