@@ -40,6 +40,7 @@ import s51sim  # noqa: E402
 REPLY = rb"(?:ok|err|rs)[^\r\n]*\r\n"
 LATENCY = 8          # machine cycles: the instruction an interrupt waits for, and a little
 LOAD_OVERRUN = 64    # how much longer than a period the interrupt that loads a segment may run
+TURN_OVERRUN = 80    # the same for an arc's turn into the next quadrant (about 175 cycles) at 8000 steps/s
 
 BATCHES = {
     "octants": ["L 120 50 4000 2500", "L 50 120 4000 2500", "L -50 120 4000 2500",
@@ -196,7 +197,7 @@ def test_pulse_for_pulse(image, tmp_path, batch):
         return
     late = [k for k, e in enumerate(errors) if abs(e) > LATENCY]
     for k in late:
-        assert abs(errors[k]) <= LOAD_OVERRUN, (k, errors[k])
+        assert abs(errors[k]) <= (TURN_OVERRUN if batch in CRUISE_TIMED else LOAD_OVERRUN), (k, errors[k])
         assert (any(abs(e) <= LATENCY for e in errors[k + 1:k + 1 + RECOVERY])
                 or k + RECOVERY >= len(errors)), (k, errors[k:k + 1 + RECOVERY])
     worst = max(abs(e) for e in errors)
