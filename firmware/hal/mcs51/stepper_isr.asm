@@ -13,7 +13,8 @@
 ;  only off the fast paths, B and DPTR saved only on the paths that use
 ;  them (a segment load, a level change, a new period), and the commonest
 ;  cases run straight through: a line at cruise (st_fast), a line on the
-;  ramp between level changes (st_rampfast), an arc at cruise (st_arcfast).
+;  ramp between level changes (st_rampfast), an arc at cruise or on the
+;  ramp (st_arcfast).
 ;  None of those tests the feed hold: a hold clears their flags
 ;  (HAL_STEPPER_SLOW, core/stepper.h's STEPPER_HOLD).
 
