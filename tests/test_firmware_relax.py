@@ -78,7 +78,7 @@ def test_board_image_short_forms_stay_in_their_pages():
     require_s51()
     base = mcu_image()
     mcs51 = base.parent / "mcs51"
-    globals_ = relax.global_symbols(base.with_suffix(".map"))
+    globals_ = relax.s51sim.Symbols(base)
     rsts = sorted(mcs51.glob("*.rst"))
     assert rsts
     shortened = 0

@@ -30,6 +30,7 @@ import sys
 from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
+import s51sim  # noqa: E402
 import size  # noqa: E402
 
 LONG = {"lcall": "acall", "ljmp": "ajmp"}
@@ -74,18 +75,11 @@ def shorten(text, lines):
     return "\n".join(out) + "\n"
 
 
-def global_symbols(map_path):
-    syms = {}
-    for line in open(map_path):
-        m = re.match(r"\s*(?:C:\s+)?([0-9A-F]{8})\s+(\S+)", line)
-        if m:
-            syms.setdefault(m.group(2), int(m.group(1), 16))
-    return syms
-
-
 def out_of_page(rst_path, globals_):
     """Source line numbers (1-based, the listing's) of the short calls and
-    jumps whose target is in another 2 KB page than the next instruction."""
+    jumps whose target is in another 2 KB page than the next instruction;
+    globals_: the image's addresses of other modules' symbols
+    (s51sim.Symbols)."""
     labels, scope = {}, 0
     rows = []
     for line in open(rst_path):
@@ -137,10 +131,9 @@ def main(argv):
             subprocess.run(["sdas8051", "-plosgffw", str(r), str(work)], check=True)
         link = subprocess.run(shlex.split(args.link) + ["--code-size", "65536"] +
                               [str(r) for r in rels] + ["-o", args.out], capture_output=True, text=True)
-        map_path = Path(args.out).with_suffix(".map")
         more = 0
-        if map_path.exists():
-            globals_ = global_symbols(map_path)
+        if Path(args.out).with_suffix(".map").exists():
+            globals_ = s51sim.Symbols(Path(args.out).with_suffix(""))
             for r in rels:
                 for srcno in out_of_page(r.with_suffix(".rst"), globals_):
                     k = srcno - 1

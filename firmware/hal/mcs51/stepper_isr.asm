@@ -404,8 +404,6 @@ not_arc_fast:
 	; by one a step, the levels stay) until the level's steps run out,
 	; and then it is st_rampup's: the level changes (ramp_level).
 	jb	_st_rampfast,ramp_fast
-not_ramp_fast:
-	clr	_st_rampfast
 	mov	PSW,#BANK1
 	jb	_st_load,load
 run:
@@ -441,8 +439,8 @@ cruise_held_near:
 ;  step, count, ramp and done of the full path without the choice.
 ramp_fast:
 line_step:
-	; A line step; with st_rampfast (cleared on the way to the full path)
-	; also its count and ramp, the choice made.
+	; A line step; with st_rampfast (never set on the full path) also its
+	; count and ramp, the choice made.
 	jb	LF_SIGN,1$
 	setb	_st_pulse_x
 	clr	_st_pulse_y
@@ -1242,10 +1240,7 @@ afs_dirs:
 	jnb	st_yneg,5$
 	cpl	c
 5$:	jc	afs_ret
-afs_go:
-	mov	a,_st_moves		; both moves of the quadrant
-	swap	a
-	orl	a,_st_moves
+afs_go:					; A: both moves of the quadrant
 	mov	c,A_1
 	mov	st_xneg,c
 	mov	c,A_3
