@@ -64,7 +64,7 @@ from dataclasses import dataclass, field
 from typing import Dict, Optional
 
 from action_msgs.msg import GoalStatus
-from rclpy.action import ActionClient, ActionServer, CancelResponse, GoalResponse
+from rclpy.action import ActionServer, CancelResponse, GoalResponse
 from rclpy.callback_groups import MutuallyExclusiveCallbackGroup, ReentrantCallbackGroup
 from rclpy.node import Node
 from rclpy.task import Future
@@ -74,6 +74,7 @@ from plotter_interfaces.action import DrawShape, RunProgram
 from plotter_interfaces.msg import ShapeGoal
 
 from plotter_bridge.gcode.limits import WorkArea
+from plotter_bridge.nodes.action_client import ActionClient
 from plotter_bridge.nodes.jobs import JobQueue, Waker, Worker
 from plotter_bridge.nodes.main import DEFAULT_NAMESPACE, run_node
 from plotter_bridge.nodes.params import COORDINATE, WORK_AREA, NodeParameters, ParamSpec, check_work_area

@@ -22,12 +22,12 @@ import threading
 import time
 from typing import List, Optional
 
-from rclpy.action import ActionClient
 from rclpy.callback_groups import ReentrantCallbackGroup
 from rclpy.node import Node
 from std_srvs.srv import Trigger
 
 from plotter_bridge.gcode.limits import WorkArea
+from plotter_bridge.nodes.action_client import ActionClient
 from plotter_bridge.nodes.main import DEFAULT_NAMESPACE, run_node
 from plotter_bridge.nodes.params import WORK_AREA, NodeParameters, ParamSpec, check_work_area
 from plotter_bridge.nodes.qos import latched

@@ -73,7 +73,7 @@ class GraphClient:
         """Send a goal and wait for its end; Ctrl-C cancels it (and raises
         KeyboardInterrupt once it ended).  Missing if no server answers."""
         from action_msgs.msg import GoalStatus
-        from rclpy.action import ActionClient
+        from plotter_bridge.nodes.action_client import ActionClient
         client = ActionClient(self.node, action_type, action)
         self._clients.append(client)
         if not client.wait_for_server(timeout_sec=WAIT_S):

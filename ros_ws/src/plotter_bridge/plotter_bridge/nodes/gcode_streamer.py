@@ -43,7 +43,7 @@ import uuid
 from dataclasses import dataclass, replace
 from typing import Optional
 
-from rclpy.action import ActionClient, ActionServer, CancelResponse, GoalResponse
+from rclpy.action import ActionServer, CancelResponse, GoalResponse
 from rclpy.action.server import ServerGoalHandle
 from rclpy.callback_groups import MutuallyExclusiveCallbackGroup, ReentrantCallbackGroup
 from rclpy.node import Node
@@ -67,6 +67,7 @@ from plotter_bridge.motion.compiler import MAX_PROGRAM_BYTES, StreamerConfig, co
 from plotter_bridge.motion.planner import link_baud
 from plotter_bridge.motion.timing import JobProgress, command_seconds, pen_lengths
 
+from .action_client import ActionClient
 from .jobs import JobQueue, Waker, Worker
 from .main import DEFAULT_NAMESPACE, run_node
 from .params import (COORDINATE, MACHINE, WORK_AREA, NodeParameters, ParamSpec, check_machine, check_work_area,

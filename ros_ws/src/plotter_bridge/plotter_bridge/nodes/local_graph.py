@@ -13,7 +13,6 @@ from pathlib import Path
 from typing import Callable, Optional, Tuple
 
 import rclpy
-from rclpy.action import ActionClient
 from rclpy.context import Context
 from rclpy.executors import MultiThreadedExecutor
 from rclpy.parameter import Parameter
@@ -21,6 +20,7 @@ from rclpy.parameter import Parameter
 from plotter_interfaces.action import RunProgram
 
 from plotter_bridge.gcode.dialect import GCodeOptions
+from plotter_bridge.nodes.action_client import ActionClient
 from plotter_bridge.motion.kinematics import DEFAULT_Z_STEPS_PER_MM, Machine
 from plotter_bridge.sim.faults import FaultSpec
 from plotter_bridge.sim.mock_board import MockBoard, MockBoardConfig
