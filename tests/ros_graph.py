@@ -51,7 +51,7 @@ class Probe:
         """One action client per action, kept until close(): an action client
         destroyed while the executor waits on it kills the spin thread
         ("action client pointer is invalid")."""
-        from rclpy.action import ActionClient
+        from plotter_bridge.nodes.action_client import ActionClient
         key = (action_type, name)
         if key not in self._action_clients:
             self._action_clients[key] = ActionClient(self.node, action_type, name)

@@ -36,7 +36,7 @@ FIGURES = {"/plotter1": dict(shape="star", x=70.0, y=70.0, size=40.0),
 def test_two_plotters_draw_different_figures_at_once(tmp_path):
     from diagnostic_msgs.msg import DiagnosticArray
     from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
-    from rclpy.action import ActionClient
+    from plotter_bridge.nodes.action_client import ActionClient
     from plotter_interfaces.action import DrawShape
     from plotter_interfaces.msg import BoardState, ShapeGoal
     from plotter_shapes.geometry import build_shape

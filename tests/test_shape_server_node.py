@@ -269,7 +269,7 @@ class FakeStreamer:
 
 
 def draw_client(probe):
-    from rclpy.action import ActionClient
+    from plotter_bridge.nodes.action_client import ActionClient
 
     from plotter_interfaces.action import DrawShape
 
