@@ -80,6 +80,27 @@ def test_streamer_request_checks():
     assert check_request("", "p", "ab" * 16) is None
 
 
+@pytest.mark.ros
+def test_streamer_renews_the_lease_while_the_bridge_answers_slowly():
+    """The bridge starts a job before its answer reaches the streamer: an
+    answer slower than the lease must not end the job."""
+    import time
+    from rclpy.task import Future
+    from plotter_bridge.nodes.gcode_streamer import wait_renewing
+    answer = Future()
+    renewals = []
+
+    def renew():                    # the answer comes after the third renewal
+        renewals.append(1)
+        if len(renewals) == 3:
+            answer.set_result("accepted")
+    assert wait_renewing(answer, 60.0, 0.01, renew)
+    assert len(renewals) == 3
+    start = time.monotonic()
+    assert not wait_renewing(Future(), 0.2, 0.01, lambda: None)
+    assert time.monotonic() - start >= 0.2
+
+
 def test_bridge_goal_checks():
     pytest.importorskip("rclpy")
     from plotter_bridge.nodes.serial_bridge import validate_goal

@@ -41,7 +41,7 @@ import time
 import traceback
 import uuid
 from dataclasses import dataclass, replace
-from typing import Optional
+from typing import Callable, Optional
 
 from rclpy.action import ActionServer, CancelResponse, GoalResponse
 from rclpy.action.server import ServerGoalHandle
@@ -76,6 +76,7 @@ from .qos import latched
 
 MAX_NAME_LEN = 200
 BRIDGE_LOST_S = 10.0             # s without the bridge's action server before a running job is given up
+GOAL_ANSWER_S = 30.0             # s for the bridge to answer a goal; then the job is given up (resume asks the bridge what ran)
 
 
 @dataclass
@@ -392,7 +393,9 @@ class GCodeStreamer(Node):
         self.pub_lease.publish(lease)
         send = self._bridge.send_goal_async(goal, feedback_callback=relay,
                                             goal_uuid=UUID(uuid=list(bytes.fromhex(job_id))))
-        if not _wait(send, 30.0):
+        # The bridge starts the job before its answer arrives: a slow answer
+        # (a loaded machine) must not let the lease run out meanwhile.
+        if not wait_renewing(send, GOAL_ANSWER_S, self.lease / 4, lambda: self.pub_lease.publish(lease)):
             self.journal.update(job_id, Progress(0, INTERRUPTED, "serial bridge did not answer"))
             return Outcome(False, "serial bridge did not answer", 0, job_id)
         inner = send.result()
@@ -453,6 +456,19 @@ def _wait(future, timeout: float) -> bool:
     event = threading.Event()
     future.add_done_callback(lambda _: event.set())
     return event.wait(timeout) or future.done()
+
+
+def wait_renewing(future, timeout: float, every: float, renew: Callable[[], None]) -> bool:
+    """Wait up to timeout s for the future, calling renew() every `every` s
+    meanwhile; True if it completed."""
+    event = threading.Event()
+    future.add_done_callback(lambda _: event.set())
+    deadline = time.monotonic() + timeout
+    while not event.wait(max(0.0, min(every, deadline - time.monotonic()))):
+        if time.monotonic() >= deadline:
+            return future.done()
+        renew()
+    return True
 
 
 def main(args=None) -> int:
