@@ -1,7 +1,7 @@
 #!/usr/bin/env python3
 """Machine cycles per step of the 8051 image, measured in the s51 simulator.
 
-usage: tools/bench.py [--clock HZ] build/plotter        (make bench)
+usage: tools/bench.py [--clock HZ] [--late] build/plotter        (make bench)
 
 --clock 22118400 (make bench CPU6T=1): s51's crystal for an image built for
 the chip's 6-clock mode, which s51 does not model: at twice the crystal its
@@ -20,6 +20,9 @@ bank bit only the step interrupt sets, see tools/s51sim.py).  From the trace:
   the interrupt needs (a feed "above what the CPU can do"), so that the
   interrupt runs back to back: the period it can sustain, main loop included
   (the 8051 runs one main-loop instruction between two interrupts).
+
+--late lists every step as commanded that came slower than the table: its
+index, the table's interval and the measured one, in cycles.
 
 Ends with the two lines `line: N steps/s` and `arc: N steps/s`, the
 sustained rates in real seconds (11.0592 MHz crystal, 12 or 6 clocks a cycle).
@@ -169,6 +172,9 @@ def summary(values):
 def main(argv):
     args = list(argv[1:])
     clock_hz = s51sim.CLOCK_HZ
+    late = "--late" in args
+    if late:
+        args.remove("--late")
     if "--clock" in args:
         k = args.index("--clock")
         clock_hz = int(args[k + 1])
@@ -219,6 +225,9 @@ def main(argv):
               f"(by up to {max((d for _, d in slow), default=0)} cycles; "
               f"{len([k for k, _ in slow if k in set(ramp)])} of them on the ramps, "
               f"steps {len(got) + 1} vs {len(want) + 1} in the table)")
+        if late:
+            for k, _ in slow:
+                print(f"  step {k}: table {want[k]}, measured {got[k]} cycles")
     print()
     print(f"s51 at {clock_hz} Hz, 12 clocks a cycle: {cycles_per_s} machine cycles/s")
     rates = {}
