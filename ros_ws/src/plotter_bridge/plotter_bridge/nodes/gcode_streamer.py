@@ -76,7 +76,7 @@ from .qos import latched
 
 MAX_NAME_LEN = 200
 BRIDGE_LOST_S = 10.0             # s without the bridge's action server before a running job is given up
-GOAL_ANSWER_S = 30.0             # s for the bridge to answer a goal; then the job is given up (resume asks the bridge what ran)
+GOAL_ANSWER_S = 30.0             # s for the bridge to answer a goal (a resume asks it what ran)
 
 
 @dataclass
