@@ -127,6 +127,8 @@ class PlotterGraph:
         for p in self.processes:
             try:
                 codes.append(p.interrupt())
+                if codes[-1] != 0:     # what it printed (a crash: PYTHONFAULTHANDLER's stacks)
+                    print(f"--- {p.module} ended with {codes[-1]}:\n{p.output()}")
             except RuntimeError as exc:
                 failure = failure or exc
             finally:

@@ -97,3 +97,30 @@ def test_a_serial_a_draws_the_star_on_the_mock_board(tmp_path):
     for p in trace:
         assert min(distance(p, s) for s in segments) <= 1.0, p
     assert trace[-1] == (0, 0)
+
+
+def test_stop_leaves_the_core_alone_while_the_loop_is_still_in_it(monkeypatch):
+    """A loop that does not stop in time keeps its core and pty: closing them
+    under it would put two threads in the C core."""
+    import threading
+    import plotter_bridge.sim.mock_board as mock_board
+    b = MockBoard(MockBoardConfig(baud=9600), FirmwareCore(host_library()))
+    inside, release = threading.Event(), threading.Event()
+    run_steps = b._run_steps
+
+    def stuck(now):
+        inside.set()
+        release.wait(30)
+        run_steps(now)
+    monkeypatch.setattr(b, "_run_steps", stuck)
+    monkeypatch.setattr(mock_board, "STOP_WAIT_S", 0.2)
+    b.start()
+    try:
+        assert inside.wait(10)
+        with pytest.raises(RuntimeError, match="did not stop"):
+            b.stop()
+        assert b.connected, "the pty was closed under the running loop"
+    finally:
+        release.set()
+        b.stop()
+    assert not b.connected

@@ -45,6 +45,7 @@ TX_SIZE = 16          # firmware core/config.h: the transmit ring
 RX_EVENTS = b"\n\r?!~\x18\x1b"
 STALL = 0.003         # s: a pass of the loop this much later than it meant to wake is a stall
 PANEL_CATCH_UP_MS = 100   # panel ticks run at most this late: a stalled process does not replay seconds
+STOP_WAIT_S = 30.0       # s for the loop to stop before stop() gives up rather than close the core under it
 
 
 @dataclass
@@ -153,7 +154,11 @@ class MockBoard:
     def stop(self) -> None:
         self._stop.set()
         if self._thread:
-            self._thread.join(timeout=5)
+            self._thread.join(timeout=STOP_WAIT_S)
+            if self._thread.is_alive():
+                # Closing the core and the pty under a running loop would put two
+                # threads in the C core (it is not reentrant) and reuse its fds.
+                raise RuntimeError(f"the mock board's loop did not stop within {STOP_WAIT_S:g} s")
         self.close()
 
     def close(self) -> None:
