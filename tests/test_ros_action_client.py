@@ -11,6 +11,8 @@ import time
 
 import pytest
 
+from node_processes import wait_until
+
 pytestmark = pytest.mark.ros
 
 SEND_DELAY_S = 0.3     # far longer than an in-process answer takes
@@ -87,26 +89,19 @@ def _goal(name: str):
     return goal
 
 
-def _done(future, timeout: float) -> bool:
-    end = time.monotonic() + timeout
-    while not future.done() and time.monotonic() < end:
-        time.sleep(0.01)
-    return future.done()
-
-
 def test_goals_results_and_cancels_sent_from_another_thread_all_complete(graph):
     from plotter_bridge.nodes.action_client import ActionClient
     client = graph(ActionClient)
     for n in range(4):
         sent = client.send_goal_async(_goal(f"goal {n}"))
-        assert _done(sent, 10.0), f"goal {n}: the server's answer was lost"
+        wait_until(sent.done, 10.0, f"goal {n}: the server's answer")
         handle = sent.result()
         assert handle.accepted
         result = handle.get_result_async()
-        assert _done(result, 10.0), f"goal {n}: the result was lost"
+        wait_until(result.done, 10.0, f"goal {n}: the result")
         assert result.result().result.message == f"goal {n}"
         cancel = handle.cancel_goal_async()      # too late to cancel, but it is answered
-        assert _done(cancel, 10.0), f"goal {n}: the cancel answer was lost"
+        wait_until(cancel.done, 10.0, f"goal {n}: the cancel answer")
 
 
 def test_rclpys_own_client_loses_those_answers(graph):
@@ -117,7 +112,9 @@ def test_rclpys_own_client_loses_those_answers(graph):
     lost = 0
     for n in range(3):
         sent = client.send_goal_async(_goal(f"goal {n}"))
-        lost += not _done(sent, 2.0)
-        if lost:
+        try:
+            wait_until(sent.done, 2.0)
+        except TimeoutError:
+            lost += 1
             break
     assert lost, "rclpy's ActionClient kept every answer: is this rclpy still 7.1.6?"
