@@ -7,27 +7,36 @@ usage: tools/bench.py [--clock HZ] [--late] build/plotter        (make bench)
 the chip's 6-clock mode, which s51 does not model: at twice the crystal its
 12-clock cycles last as long as the chip's 6-clock ones at 11.0592 MHz.
 
-For a long line and for an arc the board is driven through its UART like a
-host would (and for the arc again at 10000 steps/s, a feed it can keep), and s51 records a VCD trace of port 1 and of PSW.3 (the register
-bank bit only the step interrupt sets, see tools/s51sim.py).  From the trace:
+Each command is queued through the board's UART like a host would, and s51
+records a VCD trace of port 1 and of PSW.3 (the register bank bit only the
+step interrupt sets, see tools/s51sim.py).  From the trace:
 
 - cycles per step: the time between two step pulses;
-- ISR cycles: the time PSW.3 is set, plus the interrupt's fixed entry and
-  exit (the hardware call, the pushes before `mov psw` and the pops after
-  `pop psw`, counted from the listing) - one interrupt computes one step;
-- the ramp is run twice: as commanded (feed at the ramp's top rate, T in
-  `$I`), and with the cruise period overwritten in RAM by one far below what
-  the interrupt needs (a feed "above what the CPU can do"), so that the
-  interrupt runs back to back: the period it can sustain, main loop included
+- ISR cycles (the C interrupt of the option images): the time PSW.3 is set,
+  plus the interrupt's fixed entry and exit (the hardware call, the pushes
+  before `mov psw` and the pops after `pop psw`, counted from the listing).
+
+Two kinds of run:
+
+- as commanded (COMMANDED: a line and an arc at the ramp's top rate, T in
+  `$I`, the arc again at 10000 steps/s, and a circle too small to cruise): every step against the host
+  core's schedule, the ramp table.  A step more than the interrupt latency
+  slower than the table is late; the summary gives their count and the
+  table interval of the slowest, below whose rate the table is kept.
+  --late lists each: its index, the table's interval and the measured one.
+- saturated (SWEEP: lines in several directions, full circles of several
+  radii both ways): the cruise period is overwritten in RAM by one far below
+  what the interrupt needs (a feed "above what the CPU can do"), so that
+  the interrupt runs back to back over the middle half, main loop included
   (the 8051 runs one main-loop instruction between two interrupts).
 
---late lists every step as commanded that came slower than the table: its
-index, the table's interval and the measured one, in cycles.
-
-Ends with the two lines `line: N steps/s` and `arc: N steps/s`, the
-sustained rates in real seconds (11.0592 MHz crystal, 12 or 6 clocks a cycle).
+Ends with the two lines `line: N steps/s` and `arc: N steps/s`: the slowest
+of each kind in the sweep, in real seconds (11.0592 MHz crystal, 12 or 6
+clocks a cycle).
 """
-import collections
+
+import concurrent.futures
+import os
 import re
 import statistics
 import sys
@@ -169,6 +178,50 @@ def summary(values):
             f"mean {statistics.mean(values):.1f}  max {max(values)}  (n={len(values)})")
 
 
+# Each step of these, as commanded, against the host core's schedule.
+COMMANDED = [
+    ("line", "L 30000 0 12850"),
+    ("arc", "A 0 0 1500 0 12850"),
+    ("arc at 10000", "A 0 0 1500 0 10000"),
+    ("small arc", "A 0 0 0 -200 12850"),     # never cruises: on the ramp throughout
+]
+# The sustained rates, saturated: the figure is the slowest of each kind.  A
+# Y step costs two cycles more than an X one (the pulse tests X first), so
+# the lines run along both axes, the diagonal and between; the arcs are full
+# circles of several radii, both ways, from an axis and from between two, all
+# long enough to cruise through their middle half (checked against the
+# host's schedule).
+SWEEP = {
+    "line": ["L 30000 0 12850", "L 0 30000 12850", "L -30000 -30000 12850",
+             "L 30000 -10000 12850", "L -10000 30000 12850", "L 3 -30000 12850"],
+    "arc": ["A 0 0 1500 0 12850", "C 0 0 -1500 0 12850", "A 0 0 0 -600 12850",
+            "C 0 0 0 3000 12850", "A 0 0 1000 1000 12850", "C 0 0 -700 700 12850"],
+}
+
+
+def run(base, clock_hz, command, saturate):
+    """Step intervals and ISR cycles of one command in s51."""
+    with tempfile.TemporaryDirectory() as tmp:
+        vcd = str(Path(tmp) / "trace.vcd")
+        with s51sim.Sim(base, vcd=vcd, clock_hz=clock_hz) as sim:
+            overhead = isr_overhead(sim.sym)
+            sim.go()
+            sim.read_until(rb"ready[^\n]*\n")
+            sim.stop()
+            measure(sim, command, saturate)
+        return analyse(vcd, overhead, clock_hz)
+
+
+def cruise_of(library, command, n):
+    """The middle half of a run of n intervals, checked to lie where the host
+    core's schedule cruises (so that it measures cruise, not a ramp)."""
+    want = host_schedule(library, command)
+    middle = range(n // 4, 3 * n // 4)
+    if len(want) != n or any(want[k] != min(want) for k in middle):
+        raise RuntimeError(f"{command!r}: its middle half is not all at cruise")
+    return middle
+
+
 def main(argv):
     args = list(argv[1:])
     clock_hz = s51sim.CLOCK_HZ
@@ -181,70 +234,57 @@ def main(argv):
         del args[k:k + 2]
     cycles_per_s = clock_hz // 12
     base = Path(args[0]) if args else s51sim.FIRMWARE / "build" / "plotter"
+    library = base.parent / "libplotter_core.so"
     if not s51sim.s51_path():
         print("s51 (Debian package sdcc-ucsim) is not installed", file=sys.stderr)
         return 1
-    results = {}
-    with tempfile.TemporaryDirectory() as tmp:
-        cases = [
-            ("line", "L 30000 0 12850", True),
-            ("arc", "A 0 0 1500 0 12850", True),
-            ("arc at 10000", "A 0 0 1500 0 10000", False),
-        ]
-        for name, command, saturated_too in cases:
-            for saturate in (False, True) if saturated_too else (False,):
-                vcd = str(Path(tmp) / f"{name}{int(saturate)}.vcd")
-                with s51sim.Sim(base, vcd=vcd, clock_hz=clock_hz) as sim:
-                    overhead = isr_overhead(sim.sym)
-                    sim.go()
-                    sim.read_until(rb"ready[^\n]*\n")
-                    sim.stop()
-                    measure(sim, command, saturate)
-                intervals, isr = analyse(vcd, overhead, clock_hz)
-                results[(name, saturate)] = (intervals, isr)
-                label = "saturated (cruise period overwritten)" if saturate else "as commanded"
-                print(f"{name}: {command!r}, {label}")
-                print(f"  steps recorded      {len(intervals) + 1}")
-                print(f"  cycles per step     {summary(intervals)}")
-                if isr:
-                    print(f"  ISR cycles per step {summary(isr)}")
-                    common = collections.Counter(isr).most_common(8)
-                    print("  ISR cycles, most frequent: " + ", ".join(f"{c} ({n}x)" for c, n in common))
-    print()
-    library = base.parent / "libplotter_core.so"
-    for name, command, _ in cases:
+    jobs = [(command, False) for _, command in COMMANDED]
+    jobs += [(command, True) for kind in SWEEP for command in SWEEP[kind]]
+    with concurrent.futures.ThreadPoolExecutor(max_workers=min(4, os.cpu_count() or 1)) as pool:
+        runs = dict(zip(jobs, pool.map(lambda job: run(base, clock_hz, *job), jobs)))
+
+    for name, command in COMMANDED:
         # The ramp as its table says, at every rate up to the top one: each
         # step as commanded (accelerating, cruising at the top rate,
         # braking) no slower than the host core's schedule, beyond the
         # interrupt latency.
-        got = results[(name, False)][0]
+        got, isr = runs[(command, False)]
         want = host_schedule(library, command)
+        print(f"{name}: {command!r}, as commanded")
+        print(f"  cycles per step     {summary(got)}")
+        if isr:
+            print(f"  ISR cycles per step {summary(isr)}")
         slow = [(k, g - w) for k, (g, w) in enumerate(zip(got, want)) if g > w + 8]
-        ramp = [k for k, w in enumerate(want) if w > min(want)]
-        print(f"{name}: {len(slow)} of {len(want)} steps as commanded slower than the table "
+        ramp = {k for k, w in enumerate(want) if w > min(want)}
+        print(f"  {len(slow)} of {len(want)} steps slower than the table "
               f"(by up to {max((d for _, d in slow), default=0)} cycles; "
-              f"{len([k for k, _ in slow if k in set(ramp)])} of them on the ramps, "
+              f"{len([k for k, _ in slow if k in ramp])} of them on the ramps; "
               f"steps {len(got) + 1} vs {len(want) + 1} in the table)")
+        print(f"  the whole run took {sum(got)} cycles, the table {sum(want)} "
+              f"({100 * (sum(got) - sum(want)) / sum(want):+.1f} %)")
+        if slow:
+            first = max(want[k] for k, _ in slow)
+            print(f"  the slowest of them is due at a table interval of {first} cycles "
+                  f"({cycles_per_s / first:.0f} steps/s): the table is kept below that rate")
         if late:
             for k, _ in slow:
-                print(f"  step {k}: table {want[k]}, measured {got[k]} cycles")
+                print(f"    step {k}: table {want[k]}, measured {got[k]} cycles")
     print()
     print(f"s51 at {clock_hz} Hz, 12 clocks a cycle: {cycles_per_s} machine cycles/s")
+    print("saturated (cruise period overwritten): machine cycles per step over the middle half, at cruise")
     rates = {}
-    for name in ("line", "arc"):
-        intervals, isr = results[(name, True)]
-        # Cruise: the middle half of the segment (each ramp takes well under
-        # a tenth of it).  Steps there come as fast as the interrupt can go.
-        n = len(intervals)
-        cruise = intervals[n // 4:3 * n // 4]
-        cruise_isr = isr[n // 4:3 * n // 4]
-        per_step = statistics.mean(cruise)
-        rates[name] = int(cycles_per_s / per_step)
-        detail = (f" (ISR {min(cruise_isr)}..{max(cruise_isr)} cycles per step, "
-                  f"{min(isr)}..{max(isr)} over the whole segment incl. ramps and segment load)") if isr else ""
-        print(f"{name} at saturation, cruise: {per_step:.1f} machine cycles per step{detail}")
-    for name in ("line", "arc"):
-        print(f"{name}: {rates[name]} steps/s")
+    for kind, commands in SWEEP.items():
+        for command in commands:
+            intervals, isr = runs[(command, True)]
+            middle = cruise_of(library, command, len(intervals))
+            per_step = statistics.mean(intervals[k] for k in middle)
+            rate = int(cycles_per_s / per_step)
+            rates[kind] = min(rates.get(kind, rate), rate)
+            mid_isr = isr[middle.start:middle.stop]
+            detail = f", ISR {min(mid_isr)}..{max(mid_isr)}" if mid_isr else ""
+            print(f"  {kind} {command!r}: {per_step:.1f} cycles{detail} -> {rate} steps/s")
+    for kind in SWEEP:
+        print(f"{kind}: {rates[kind]} steps/s")
     return 0
 
 
