@@ -19,7 +19,8 @@ step interrupt sets, see tools/s51sim.py).  From the trace:
 Two kinds of run:
 
 - as commanded (COMMANDED: a line and an arc at the ramp's top rate, T in
-  `$I`, the arc again at 10000 steps/s, and a circle too small to cruise): every step against the host
+  `$I`, the arc again at 10000 steps/s, a circle too small to cruise, and
+  the line with the other ramp shape and with a gentler acceleration): every step against the host
   core's schedule, the ramp table.  A step more than the interrupt latency
   slower than the table is late; the summary gives their count and the
   table interval of the slowest, below whose rate the table is kept, and
@@ -94,6 +95,12 @@ def isr_overhead(sym):
     return 2 + vector + sum(c[0] for c in code[:entry + 1]) + sum(c[0] for c in code[exit_ + 1:])
 
 
+def lines_of(command):
+    """A bench command is one line, or several separated by `;` (settings
+    first: `$1=1; L 30000 0 12850`)."""
+    return [line.strip() for line in command.split(";")]
+
+
 def measure(sim, command, saturate):
     """Run one command to its end with the VCD recording.  The command is
     queued under a feed hold and released with `~`, so that it can be
@@ -103,10 +110,11 @@ def measure(sim, command, saturate):
     sim.go()
     sim.write(b"!!?")
     sim.read_until(rb"<Hold[^\n]*\n")
-    sim.write(command.encode() + b"\n")
-    reply = sim.read_until(rb"(?:ok|err|rs)[^\r\n]*\r\n").decode().strip()
-    if not reply.startswith("ok"):
-        raise RuntimeError(f"{command!r}: {reply!r}")
+    for line in lines_of(command):
+        sim.write(line.encode() + b"\n")
+        reply = sim.read_until(rb"(?:ok|err|rs)[^\r\n]*\r\n").decode().strip()
+        if not reply.startswith("ok"):
+            raise RuntimeError(f"{line!r}: {reply!r}")
     sim.stop()
     if saturate:
         # A cruise period far below what the interrupt needs: from the
@@ -155,8 +163,9 @@ def host_schedule(library, command):
     try:
         core.receive(b"!!")
         core.poll(3)
-        core.receive(command.encode() + b"\n")
-        core.poll(5)
+        for line in lines_of(command):
+            core.receive(line.encode() + b"\n")
+            core.poll(5)
         core.receive(b"~~")
         out, since = [], 0
         x1, y1 = core.position
@@ -186,6 +195,8 @@ COMMANDED = [
     ("arc", "A 0 0 1500 0 12850"),
     ("arc at 10000", "A 0 0 1500 0 10000"),
     ("small arc", "A 0 0 0 -200 12850"),     # never cruises: on the ramp throughout
+    ("line, exponential ramp", "$1=1; L 30000 0 12850"),
+    ("line, acceleration divisor 10", "$0=10; L 30000 0 12850"),
 ]
 # The sustained rates, saturated: the figure is the slowest of each kind.  A
 # Y step costs two cycles more than an X one (the pulse tests X first), so
