@@ -6,7 +6,9 @@ benchmark (benchmarks/rosgraph.py), which put tests/ on their path.
 """
 from __future__ import annotations
 
+import itertools
 import os
+import random
 import signal
 import subprocess
 import sys
@@ -16,6 +18,22 @@ from pathlib import Path
 from typing import Callable, List, Optional
 
 from plotter_bridge.sim.trace import read_seq_log, read_trace  # noqa: F401  (for the tests)
+
+# ROS domain ids 1..232 (the last one DDS maps to ports), all but the
+# environment's own: a robot on it is not the tests' to talk to.
+_TAKEN = os.environ.get("ROS_DOMAIN_ID", "")
+_DOMAINS = [d for d in range(1, 233) if str(d) != _TAKEN]
+_next_domain = itertools.count(random.SystemRandom().randrange(len(_DOMAINS)))
+
+
+def new_domain() -> int:
+    """A ROS domain id for one graph, not the id of any graph before it in
+    this test session (up to 231 of them; then they come round again).
+    Picked at random, a test's graph met the graph a module fixture kept
+    running beside it now and then, and each took the other's messages.
+    They are handed out in turn from a random start, so that two sessions on
+    one machine rarely share one either."""
+    return _DOMAINS[next(_next_domain) % len(_DOMAINS)]
 
 
 def wait_until(predicate: Callable[[], bool], timeout: float = 30.0, what: str = "condition") -> None:

@@ -12,7 +12,6 @@
 """
 import json
 import os
-import random
 import shutil
 import signal
 import subprocess
@@ -23,6 +22,7 @@ from pathlib import Path
 
 import pytest
 
+from node_processes import new_domain
 from ros_graph import PlotterGraph, Probe, read_trace, wait_until
 from test_graph_end_to_end import check_trace_follows, reference_path
 
@@ -41,7 +41,7 @@ def test_two_plotters_draw_different_figures_at_once(tmp_path):
     from plotter_interfaces.msg import BoardState, ShapeGoal
     from plotter_shapes.geometry import build_shape
 
-    domain = random.SystemRandom().randint(110, 200)
+    domain = new_domain()
     graphs = {}
     for ns in FIGURES:
         (tmp_path / ns.strip("/")).mkdir()
@@ -197,7 +197,7 @@ def test_bridge_on_one_host_shapes_and_streamer_on_another(tmp_path):
             hosts.up()
         except RuntimeError as exc:
             pytest.skip(f"cannot make network namespaces here: {exc}")
-        env = dict(os.environ, ROS_DOMAIN_ID=str(random.SystemRandom().randint(110, 200)),
+        env = dict(os.environ, ROS_DOMAIN_ID=str(new_domain()),
                    ROS_AUTOMATIC_DISCOVERY_RANGE="SUBNET", FASTDDS_BUILTIN_TRANSPORTS="UDPv4",
                    PYTHONUNBUFFERED="1")
         env.pop("ROS_STATIC_PEERS", None)

@@ -10,7 +10,6 @@ import contextlib
 import io
 import math
 import os
-import random
 import re
 import subprocess
 import sys
@@ -24,6 +23,7 @@ import pytest
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 import gcode_testlib  # noqa: E402,F401  (puts plotter_bridge on the path)
 from generator_corpus import CASES, CORPUS, Case, program, reference_polylines  # noqa: E402
+from node_processes import new_domain  # noqa: E402
 
 from plotter_bridge.cli import main as cli  # noqa: E402
 from plotter_bridge.gcode.dialect import GCodeOptions  # noqa: E402
@@ -187,7 +187,7 @@ def streams(workdir):
     import queue
     from concurrent.futures import ThreadPoolExecutor
     domains: "queue.Queue[int]" = queue.Queue()
-    for domain in random.SystemRandom().sample(range(110, 230), STREAMS_AT_ONCE):
+    for domain in [new_domain() for _ in range(STREAMS_AT_ONCE)]:
         domains.put(domain)
 
     def stream(case: Case):
@@ -247,6 +247,6 @@ def test_the_plotter_options_reach_the_streamer(tmp_path):
 def test_stream_in_the_wrong_dialect_moves_nothing(name, dialect, line, tmp_path):
     trace = tmp_path / "trace.csv"
     r = plotter("stream", CORPUS / "generated" / name, "--mock", "--trace", trace, "--dialect", dialect,
-                domain=random.SystemRandom().randint(110, 229))
+                domain=new_domain())
     assert r.returncode == 2 and f"line {line}: " in r.stderr, r.stderr
     assert not trace.exists()

@@ -5,7 +5,6 @@ plotter_interfaces/msg/ShapeGoal "{shape: star, size: 40.0}"` would; the
 mock board's step trace and /plotter/position show what was drawn.
 """
 import math
-import random
 import threading
 import time
 from contextlib import contextmanager
@@ -13,6 +12,7 @@ from pathlib import Path
 
 import pytest
 
+from node_processes import new_domain
 from ros_graph import PlotterGraph, Probe, distance_to_segment, read_trace, wait_until
 
 pytestmark = pytest.mark.ros
@@ -29,7 +29,7 @@ def watched_graph(workdir):
     from geometry_msgs.msg import PointStamped
     from plotter_interfaces.msg import BoardState, ShapeGoal
 
-    domain = random.SystemRandom().randint(110, 200)
+    domain = new_domain()
     g = PlotterGraph(domain, workdir)
     probe = Probe(domain)
     g.probe = probe

@@ -3,12 +3,12 @@ each node a process with `machine:=hanging`, a 50 cm circle from G-code, the
 trace, /plotter/position and /plotter/planned_path in pen coordinates; a
 line where the tolerance cannot be held is refused and nothing moves."""
 import math
-import random
 import threading
 import time
 
 import pytest
 
+from node_processes import new_domain
 from ros_graph import PlotterGraph, Probe, wait_until
 
 pytestmark = pytest.mark.ros
@@ -23,7 +23,7 @@ def test_hanging_circle_through_the_graph_stays_within_a_tenth_of_a_millimetre(t
     from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
     from plotter_interfaces.action import RunProgram
 
-    domain = random.SystemRandom().randint(110, 200)
+    domain = new_domain()
     hanging = ("-p", "machine:=hanging")
     # Up to 20 mm below the pulleys: beyond the accurate area at the top.
     area = ("-p", "x_max:=800.0", "-p", "y_max:=1130.0")

@@ -1,12 +1,11 @@
 """Every node shares one main (plotter_bridge/nodes/main.py): started as a
 plain script, a bad parameter ends it with exit code 1 and one line saying
 so, and Ctrl-C ends it cleanly with 0."""
-import random
 import time
 
 import pytest
 
-from node_processes import NodeProcess
+from node_processes import NodeProcess, new_domain
 
 pytestmark = pytest.mark.ros
 
@@ -25,10 +24,6 @@ HEALTHY = {
 }
 
 
-def _domain() -> int:
-    return random.SystemRandom().randint(110, 200)
-
-
 def _wait_exit(proc: NodeProcess, timeout: float = 30.0) -> int:
     end = time.monotonic() + timeout
     while proc.alive() and time.monotonic() < end:
@@ -40,7 +35,7 @@ def _wait_exit(proc: NodeProcess, timeout: float = 30.0) -> int:
 @pytest.mark.parametrize("module,bad", [(m, b) for m, bads in NODES for b in bads])
 def test_a_bad_parameter_exits_1_with_one_line(module, bad, tmp_path):
     extra = ("-p", f"journal_dir:={tmp_path}") if module.endswith("gcode_streamer") else ()
-    proc = NodeProcess(module, _domain(), (*extra, "-p", bad))
+    proc = NodeProcess(module, new_domain(), (*extra, "-p", bad))
     try:
         code = _wait_exit(proc)
         out = proc.output()
@@ -56,7 +51,7 @@ def test_a_bad_parameter_exits_1_with_one_line(module, bad, tmp_path):
 @pytest.mark.parametrize("module", [m for m, _ in NODES])
 def test_ctrl_c_exits_0(module, tmp_path):
     extra = ("-p", f"journal_dir:={tmp_path}") if module.endswith("gcode_streamer") else ()
-    proc = NodeProcess(module, _domain(), (*extra, *HEALTHY[module]))
+    proc = NodeProcess(module, new_domain(), (*extra, *HEALTHY[module]))
     try:
         time.sleep(3.0)                      # up and spinning
         assert proc.alive(), proc.output()

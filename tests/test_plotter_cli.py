@@ -2,12 +2,12 @@
 import json
 import math
 import os
-import random
 import subprocess
 from pathlib import Path
 
 import pytest
 
+from node_processes import new_domain
 from ros_graph import read_trace
 
 REPO = Path(__file__).resolve().parent.parent
@@ -19,7 +19,7 @@ pytestmark = pytest.mark.ros
 def plotter(*args, timeout=600):
     if not PLOTTER.exists():
         pytest.fail("the plotter command is missing: run scripts/setup.sh")
-    env = dict(os.environ, ROS_DOMAIN_ID=str(random.SystemRandom().randint(110, 200)))
+    env = dict(os.environ, ROS_DOMAIN_ID=str(new_domain()))
     return subprocess.run([str(PLOTTER), *map(str, args)], capture_output=True, text=True,
                           timeout=timeout, env=env)
 

@@ -9,7 +9,6 @@ from __future__ import annotations
 
 import os
 import pty
-import random
 import signal
 import subprocess
 import threading
@@ -18,7 +17,7 @@ from pathlib import Path
 
 import pytest
 
-from node_processes import PlotterGraph, read_trace, wait_until
+from node_processes import PlotterGraph, new_domain, read_trace, wait_until
 from ros_graph import Probe
 
 pytestmark = pytest.mark.ros
@@ -32,7 +31,7 @@ STEPS_PER_MM = 80.0
 def graph(tmp_path_factory):
     from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
     from plotter_interfaces.msg import BoardState
-    domain = random.SystemRandom().randint(110, 200)
+    domain = new_domain()
     g = PlotterGraph(domain, tmp_path_factory.mktemp("client"))
     g.probe = Probe(domain)
     g.states = []
@@ -225,7 +224,7 @@ def test_ctrl_c_cancels_the_job_and_the_board_stops_there(graph, tmp_path):
 
 
 def test_a_missing_server_is_named_with_how_to_start_it(tmp_path):
-    env = dict(os.environ, ROS_DOMAIN_ID=str(random.SystemRandom().randint(201, 230)),
+    env = dict(os.environ, ROS_DOMAIN_ID=str(new_domain()),
                ROS_AUTOMATIC_DISCOVERY_RANGE="LOCALHOST")
     program = tmp_path / "p.gcode"
     program.write_text("G21 G90\nG0 X1 Y1\nM2\n")

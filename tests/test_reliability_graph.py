@@ -8,7 +8,6 @@ checked against the board, not against what the nodes believe.
 """
 import math
 import os
-import random
 import signal
 import threading
 import time
@@ -16,7 +15,7 @@ import time
 import pytest
 
 from ros_graph import PlotterGraph, Probe, read_trace, wait_until
-from node_processes import read_seq_log
+from node_processes import new_domain, read_seq_log
 
 pytestmark = pytest.mark.ros
 
@@ -37,7 +36,7 @@ def graph(tmp_path_factory):
     from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
     from plotter_interfaces.msg import BoardState
 
-    domain = random.SystemRandom().randint(110, 200)
+    domain = new_domain()
     g = PlotterGraph(domain, tmp_path_factory.mktemp("reliability"),
                      board_args=("-p", "unplug_for:=1.5"),
                      bridge_args=("-p", "reconnect_timeout:=20.0"),

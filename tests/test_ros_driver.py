@@ -12,7 +12,6 @@ missing port, SI units, and the launch file.
 from __future__ import annotations
 
 import math
-import random
 import re
 import threading
 import time
@@ -20,7 +19,7 @@ from pathlib import Path
 
 import pytest
 
-from node_processes import NodeProcess, PlotterGraph, params_file, read_trace, wait_until
+from node_processes import NodeProcess, PlotterGraph, new_domain, params_file, read_trace, wait_until
 from ros_graph import Probe
 
 pytestmark = pytest.mark.ros
@@ -33,10 +32,6 @@ MODULES = {
     "gcode_streamer": "plotter_bridge.nodes.gcode_streamer",
     "shape_server": "plotter_shapes.shape_server_node",
 }
-
-
-def _domain() -> int:
-    return random.SystemRandom().randint(110, 200)
 
 
 def _wait(future, timeout: float = 30.0, what: str = "an answer"):
@@ -68,7 +63,7 @@ def _set(client, name, value):
 def lone_nodes(tmp_path_factory):
     """The four nodes, each started with integer literals where numbers are declared,
     as `ros2 run ... --ros-args -p steps_per_mm:=100 -p x_max:=250` starts them."""
-    domain = _domain()
+    domain = new_domain()
     tmp = tmp_path_factory.mktemp("lone")
     ints = ("-p", "steps_per_mm:=100", "-p", "x_max:=250", "-p", "acceleration:=800", "-p", "baud:=9600",
             "-p", "default_size:=30", "-p", "status_hz:=20", "-p", "unplug_for:=3")
@@ -174,7 +169,8 @@ def test_a_bad_value_at_start_ends_the_node_with_one_clear_line(tmp_path):
     started = []
     for node, name, value in BAD_VALUES:
         extra = ("-p", f"journal_dir:={tmp_path}") if node == "gcode_streamer" else ()
-        started.append((node, name, value, NodeProcess(MODULES[node], _domain(), (*extra, "-p", f"{name}:={value}"))))
+        proc = NodeProcess(MODULES[node], new_domain(), (*extra, "-p", f"{name}:={value}"))
+        started.append((node, name, value, proc))
     try:
         for node, name, value, proc in started:
             wait_until(lambda: not proc.alive(), 60, f"{node} with {name}:={value} to exit")
@@ -220,7 +216,7 @@ def test_a_changed_settings_file_reaches_every_node(tmp_path):
     text = Path(params_file()).read_text()
     mine = tmp_path / "my_plotter.yaml"
     mine.write_text(text.replace("steps_per_mm: 80.0", "steps_per_mm: 100").replace("x_max: 200.0", "x_max: 120"))
-    domain = _domain()
+    domain = new_domain()
     args = ("-r", "__ns:=/plotter", "--params-file", str(mine))
     procs = {name: NodeProcess(module, domain, args + (
         ("-p", "port:=/nonexistent/plotter") if name == "serial_bridge" else
@@ -248,7 +244,7 @@ def graph(tmp_path_factory):
     from plotter_interfaces.msg import BoardState
     from std_msgs.msg import String
 
-    domain = _domain()
+    domain = new_domain()
     g = PlotterGraph(domain, tmp_path_factory.mktemp("driver"))
     probe = Probe(domain)
     g.probe = probe
@@ -464,7 +460,7 @@ def test_a_missing_port_is_reported_at_once_and_again_more_slowly(tmp_path):
     from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
     from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus
     from plotter_interfaces.msg import BoardState
-    domain = _domain()
+    domain = new_domain()
     probe = Probe(domain)
     states, diags = [], []
     latched = QoSProfile(depth=1, reliability=ReliabilityPolicy.RELIABLE, durability=DurabilityPolicy.TRANSIENT_LOCAL)
@@ -517,7 +513,7 @@ def test_the_launch_file_starts_what_it_describes(tmp_path):
         ("plotter_bridge", "gcode_streamer"), ("plotter_shapes", "shape_server")]
     assert all(n.namespace == "plotter" and n.param_files == [params_file()] for n in nodes)
     assert nodes[0].params == {"link": str(link)} and nodes[1].params == {"port": str(link)}
-    domain = _domain()
+    domain = new_domain()
     procs = []
     probe = Probe(domain)
     try:
@@ -556,7 +552,7 @@ def test_a_job_whose_bridge_dies_ends_with_the_reason_and_the_streamer_rests(tmp
     import os as _os
     from action_msgs.msg import GoalStatus
     from plotter_interfaces.action import RunProgram
-    domain = _domain()
+    domain = new_domain()
     g = PlotterGraph(domain, tmp_path)
     probe = Probe(domain)
     try:

@@ -1,7 +1,7 @@
 """The shape_server node, run as its own process like ``ros2 run`` would.
 
 Each test starts ``python -m plotter_shapes.shape_server_node`` in a ROS domain
-of its own (random ROS_DOMAIN_ID, discovery on loopback) and talks to it with
+of its own (node_processes.new_domain, discovery on loopback) and talks to it with
 rclpy from the test process: it publishes ShapeGoal messages as
 ``ros2 topic pub --once /plotter/shape plotter_interfaces/msg/ShapeGoal "{...}"``
 does (reliable, volatile, after a subscriber has matched), reads
@@ -9,8 +9,6 @@ does (reliable, volatile, after a subscriber has matched), reads
 ``run_program`` action server for the ``draw`` action.
 """
 
-import os
-import random
 import sys
 import threading
 import time
@@ -46,9 +44,7 @@ def wait_future(future, timeout=TIMEOUT_S, what="future"):
 @pytest.fixture
 def domain_id():
     """A ROS domain of its own for this test."""
-    taken = os.environ.get("ROS_DOMAIN_ID")
-    choices = [d for d in range(1, 101) if str(d) != taken]
-    return random.SystemRandom().choice(choices)
+    return node_processes.new_domain()
 
 
 class NodeProcess(node_processes.NodeProcess):

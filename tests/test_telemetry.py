@@ -1,6 +1,5 @@
 """The bridge's RViz topics (path, planned_path, pen, ink) and /diagnostics (plotter_bridge.link.telemetry, nodes.telemetry)."""
 import math
-import random
 import threading
 import time
 
@@ -95,9 +94,10 @@ def test_path_grows_and_diagnostics_follow_the_link(tmp_path):
     from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
     from std_msgs.msg import String
     from visualization_msgs.msg import Marker
+    from node_processes import new_domain
     from ros_graph import PlotterGraph, Probe, wait_until
 
-    domain = random.SystemRandom().randint(110, 200)
+    domain = new_domain()
     g = PlotterGraph(domain, tmp_path)
     probe = Probe(domain)
     lock = threading.Lock()

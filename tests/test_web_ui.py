@@ -5,7 +5,6 @@ from __future__ import annotations
 
 import json
 import os
-import random
 import re
 import socket
 import time
@@ -15,7 +14,7 @@ from pathlib import Path
 
 import pytest
 
-from node_processes import NodeProcess, PlotterGraph, params_file, read_trace, wait_until
+from node_processes import NodeProcess, PlotterGraph, new_domain, params_file, read_trace, wait_until
 
 pytestmark = pytest.mark.ros
 
@@ -49,7 +48,7 @@ def browser():
 
 @pytest.fixture(scope="module")
 def page(tmp_path_factory):
-    domain = random.SystemRandom().randint(110, 200)
+    domain = new_domain()
     work = tmp_path_factory.mktemp("web")
     graph = PlotterGraph(domain, work)
     port = free_port()
@@ -252,7 +251,7 @@ def test_jog_moves_the_pen_while_idle_and_never_out_of_the_area(page):
 
 
 def test_a_disconnected_board_is_shown_and_nothing_is_sent(tmp_path):
-    domain = random.SystemRandom().randint(110, 200)
+    domain = new_domain()
     bridge = NodeProcess("plotter_bridge.nodes.serial_bridge", domain,
                          ("-r", "__ns:=/plotter", "--params-file", params_file(), "-p", "port:=/nonexistent/tty9"))
     port = free_port()
@@ -284,7 +283,7 @@ def _request(url: str, method: str = "GET", headers=None, data=None):
 
 
 def test_binding_beyond_loopback_needs_a_token_and_every_request_carries_it():
-    domain = random.SystemRandom().randint(110, 200)
+    domain = new_domain()
     open_ui = web_ui(domain, "-p", "host:=0.0.0.0", "-p", f"port:={free_port()}")
     wait_until(lambda: not open_ui.alive(), 30, "web_ui without a token to exit")
     out = open_ui.output()
@@ -342,6 +341,6 @@ def test_the_screenshot_script_draws_through_the_page(tmp_path):
     # The script's own waits (at most 30 + 60 + 30 + 180 s) end before this one, and say what they saw.
     r = subprocess.run([sys.executable, str(REPO / "scripts" / "web_screenshot.py"), "--out", str(out),
                         "--figures", "1"], capture_output=True, text=True, timeout=420,
-                       env=dict(os.environ, ROS_DOMAIN_ID=str(random.SystemRandom().randint(110, 200))))
+                       env=dict(os.environ, ROS_DOMAIN_ID=str(new_domain())))
     assert r.returncode == 0, r.stdout + r.stderr
     assert out.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n" and out.stat().st_size > 20000
