@@ -29,10 +29,10 @@ _next_domain = itertools.count(random.SystemRandom().randrange(len(_DOMAINS)))
 def new_domain() -> int:
     """A ROS domain id for one graph, not the id of any graph before it in
     this test session (up to 231 of them; then they come round again).
-    Picked at random, a test's graph met the graph a module fixture kept
-    running beside it now and then, and each took the other's messages.
-    They are handed out in turn from a random start, so that two sessions on
-    one machine rarely share one either."""
+    Two graphs on one domain hear each other's nodes: picked at random, a
+    test's domain would now and then be that of a graph a module fixture
+    keeps running beside it.  The ids come in turn from a random start, so
+    that two sessions on one machine rarely share one either."""
     return _DOMAINS[next(_next_domain) % len(_DOMAINS)]
 
 

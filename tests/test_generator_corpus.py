@@ -187,8 +187,8 @@ def streams(workdir):
     import queue
     from concurrent.futures import ThreadPoolExecutor
     domains: "queue.Queue[int]" = queue.Queue()
-    for domain in [new_domain() for _ in range(STREAMS_AT_ONCE)]:
-        domains.put(domain)
+    for _ in range(STREAMS_AT_ONCE):
+        domains.put(new_domain())
 
     def stream(case: Case):
         path = program(case, workdir)
