@@ -4,7 +4,6 @@ from __future__ import annotations
 
 import math
 import os
-import threading
 
 from node_processes import NodeProcess, PlotterGraph, read_trace, wait_until  # noqa: F401
 
@@ -43,8 +42,8 @@ class Probe:
         self.node = rclpy.create_node("test_probe", namespace=namespace, context=self.context)
         self.executor = MultiThreadedExecutor(context=self.context)
         self.executor.add_node(self.node)
-        self._thread = threading.Thread(target=self.executor.spin, daemon=True)
-        self._thread.start()
+        from plotter_bridge.nodes.spinning import SpinThread
+        self._spin = SpinThread(self.executor)
         self._action_clients = {}
 
     def action_client(self, action_type, name: str):
@@ -59,9 +58,8 @@ class Probe:
 
     def close(self) -> None:
         import rclpy
-        self.executor.shutdown(timeout_sec=2.0)
         # The node goes only once the spin thread has left the executor: a
         # task still running would fail on its destroyed handles.
-        self._thread.join(timeout=5.0)
+        self._spin.stop()
         self.node.destroy_node()
         rclpy.try_shutdown(context=self.context)

@@ -54,6 +54,7 @@ class GraphClient:
         import rclpy
         from rclpy.context import Context
         from rclpy.executors import MultiThreadedExecutor
+        from plotter_bridge.nodes.spinning import SpinThread
         self.namespace = "/" + namespace.strip("/")
         self._context = Context()
         rclpy.init(context=self._context, args=[])
@@ -61,8 +62,7 @@ class GraphClient:
                                       context=self._context)
         self._executor = MultiThreadedExecutor(num_threads=2, context=self._context)
         self._executor.add_node(self.node)
-        self._spin = threading.Thread(target=self._executor.spin, daemon=True)
-        self._spin.start()
+        self._spin = SpinThread(self._executor)
         self._clients = []
 
     def name(self, relative: str) -> str:
@@ -123,8 +123,7 @@ class GraphClient:
 
     def close(self) -> None:
         import rclpy
-        self._executor.shutdown(timeout_sec=2.0)
-        self._spin.join(timeout=5.0)          # out of the executor before anything is destroyed
+        self._spin.stop()                      # out of the executor before anything is destroyed
         for client in self._clients:
             client.destroy()
         self.node.destroy_node()

@@ -27,6 +27,7 @@ from plotter_bridge.sim.mock_board import MockBoard, MockBoardConfig
 
 from .gcode_streamer import GCodeStreamer
 from .serial_bridge import SerialBridge
+from .spinning import SpinThread
 
 ProgressCallback = Callable[[RunProgram.Feedback], None]
 
@@ -110,8 +111,7 @@ class LocalGraph:
         self._executor = MultiThreadedExecutor(num_threads=8, context=self._context)
         for node in (self.bridge, self.streamer, self.client_node):
             self._executor.add_node(node)
-        self._spin = threading.Thread(target=self._executor.spin, daemon=True)
-        self._spin.start()
+        self._spin = SpinThread(self._executor)
 
     def run_program(self, text: str, name: str = "program",
                     progress: Optional[ProgressCallback] = None,
@@ -144,11 +144,10 @@ class LocalGraph:
         return ProgramResult(r.success, r.message, r.x_mm, r.y_mm, r.job_id, self.bridge.z_mm())
 
     def close(self) -> None:
-        self._executor.shutdown(timeout_sec=2.0)
         # The nodes and the action client go only once the spin thread has
         # left the executor: a callback still running, or a wait set still
         # holding the client, would fail on their destroyed handles.
-        self._spin.join(timeout=5.0)
+        self._spin.stop()
         self._client.destroy()
         for node in (self.client_node, self.streamer, self.bridge):
             node.destroy_node()

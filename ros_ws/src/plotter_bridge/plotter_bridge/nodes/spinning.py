@@ -1,0 +1,48 @@
+"""An executor spun in a thread of its own, and stopped without leaving a
+callback to run into destroyed handles.
+
+rclpy 7.1.6's Executor.shutdown() destroys the executor's guard condition
+without waiting for the callbacks in flight (its wait on the work tracker is
+never reached), so a spin() in another thread can fail on that handle
+(ros2/rclpy#968): a traceback from the spin thread, or "The following
+exception was never retrieved: cannot use Destroyable because destruction
+was requested" from a callback still running in a worker, printed as the
+`plotter` command exits.  Here the thread spins in short steps until it is
+told to stop; stop() joins it and lets the callbacks in flight end before it
+shuts the executor down.
+"""
+from __future__ import annotations
+
+import threading
+import time
+
+from rclpy.executors import Executor
+
+STEP_S = 0.1          # s a spin step waits for work: how soon the thread sees stop()
+DRAIN_S = 2.0         # s stop() gives the callbacks in flight
+
+
+class SpinThread:
+    def __init__(self, executor: Executor, name: str = "spin") -> None:
+        self.executor = executor
+        self._stop = threading.Event()
+        self._thread = threading.Thread(target=self._run, name=name, daemon=True)
+        self._thread.start()
+
+    def _run(self) -> None:
+        while not self._stop.is_set() and self.executor.context.ok():
+            self.executor.spin_once(timeout_sec=STEP_S)
+
+    def stop(self, timeout: float = 5.0) -> None:
+        """Stop spinning and shut the executor down; the nodes stay, for
+        the caller to destroy."""
+        self._stop.set()
+        self._thread.join(timeout)
+        # A MultiThreadedExecutor's callbacks run in its workers, each a
+        # task it keeps until it sees it done; a callback that waits longer
+        # than DRAIN_S is left to the shutdown, as before.
+        tasks = list(getattr(self.executor, "_futures", ()))
+        end = time.monotonic() + DRAIN_S
+        while any(not task.done() for task in tasks) and time.monotonic() < end:
+            time.sleep(0.005)
+        self.executor.shutdown(timeout_sec=DRAIN_S)
