@@ -11,6 +11,8 @@ from rclpy.exceptions import ParameterException
 from rclpy.executors import ExternalShutdownException, MultiThreadedExecutor
 from rclpy.node import Node
 
+from .spinning import shutdown_after_callbacks
+
 EXIT_OK = 0
 EXIT_BAD_PARAMETER = 1
 
@@ -42,7 +44,7 @@ def run_node(make: Callable[[], Node], name: str, args: Optional[List[str]] = No
         return EXIT_BAD_PARAMETER
     finally:
         if executor is not None:
-            executor.shutdown()
+            shutdown_after_callbacks(executor)
         if node is not None:
             node.destroy_node()
         rclpy.try_shutdown()

@@ -7,9 +7,10 @@ never reached), so a spin() in another thread can fail on that handle
 (ros2/rclpy#968): a traceback from the spin thread, or "The following
 exception was never retrieved: cannot use Destroyable because destruction
 was requested" from a callback still running in a worker, printed as the
-`plotter` command exits.  Here the thread spins in short steps until it is
-told to stop; stop() joins it and lets the callbacks in flight end before it
-shuts the executor down.
+`plotter` command exits or a node is stopped.  Here the thread spins in
+short steps until it is told to stop; stop() joins it and lets the callbacks
+in flight end before it shuts the executor down, as run_node does after its
+spin in the main thread.
 """
 from __future__ import annotations
 
@@ -38,11 +39,16 @@ class SpinThread:
         the caller to destroy."""
         self._stop.set()
         self._thread.join(timeout)
-        # A MultiThreadedExecutor's callbacks run in its workers, each a
-        # task it keeps until it sees it done; a callback that waits longer
-        # than DRAIN_S is left to the shutdown, as before.
-        tasks = list(getattr(self.executor, "_futures", ()))
-        end = time.monotonic() + DRAIN_S
-        while any(not task.done() for task in tasks) and time.monotonic() < end:
-            time.sleep(0.005)
-        self.executor.shutdown(timeout_sec=DRAIN_S)
+        shutdown_after_callbacks(self.executor)
+
+
+def shutdown_after_callbacks(executor: Executor) -> None:
+    """Shut down an executor nothing spins any more, once the callbacks
+    still running in its workers have ended (or after DRAIN_S)."""
+    # A MultiThreadedExecutor keeps each callback's task until it sees it
+    # done; one that waits longer than DRAIN_S meets the shutdown, as before.
+    tasks = list(getattr(executor, "_futures", ()))
+    end = time.monotonic() + DRAIN_S
+    while any(not task.done() for task in tasks) and time.monotonic() < end:
+        time.sleep(0.005)
+    executor.shutdown(timeout_sec=DRAIN_S)
