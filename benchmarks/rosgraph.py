@@ -155,6 +155,7 @@ class BenchGraph:
         from rclpy.action import ActionClient
         from rclpy.context import Context
         from rclpy.executors import SingleThreadedExecutor
+        from plotter_bridge.nodes.spinning import SpinThread
         from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
         from geometry_msgs.msg import PointStamped
         from plotter_interfaces.action import RunProgram
@@ -199,8 +200,7 @@ class BenchGraph:
         self._idle = BoardState.IDLE
         self.executor = SingleThreadedExecutor(context=self.context)
         self.executor.add_node(self.node)
-        self._spin = threading.Thread(target=self.executor.spin, daemon=True)
-        self._spin.start()
+        self._spin = SpinThread(self.executor)
         wait_until(lambda: self.state is not None and self.state.state == self._idle, 60, "the bridge")
         if not self._client.wait_for_server(timeout_sec=30.0):
             raise RuntimeError("gcode_streamer's run_program action did not appear")
@@ -268,7 +268,7 @@ class BenchGraph:
     def close(self) -> None:
         import rclpy
         self.sampler.close()
-        self.executor.shutdown(timeout_sec=2.0)
+        self._spin.stop()
         self.node.destroy_node()
         rclpy.try_shutdown(context=self.context)
         for p in (self.streamer, self.bridge):

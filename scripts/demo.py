@@ -14,7 +14,6 @@ import os
 import random
 import sys
 import tempfile
-import threading
 import time
 from pathlib import Path
 
@@ -27,6 +26,7 @@ from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent / "tests"))   # the node graph as processes
 from node_processes import PlotterGraph, read_trace, wait_until  # noqa: E402
 from plotter_bridge.cli.picture import figure_polylines, runs_near_path, write_picture
+from plotter_bridge.nodes.spinning import SpinThread
 from plotter_interfaces.msg import BoardState, ShapeGoal
 from plotter_shapes.geometry import SEED_FIGURES, build_shape
 
@@ -63,8 +63,7 @@ def main() -> int:
     node.create_subscription(PointStamped, "position", on_position, 10)
     node.create_subscription(BoardState, "state", lambda m: states.append((time.monotonic(), m)), latched)
     pub = node.create_publisher(ShapeGoal, "shape", 10)
-    spin = threading.Thread(target=executor.spin, daemon=True)
-    spin.start()
+    spin = SpinThread(executor)
     failed = False
     try:
         wait_until(lambda: any(m.state == BoardState.IDLE for _, m in states), 60, "the board")
@@ -87,7 +86,7 @@ def main() -> int:
                 print(f"  board reports: {states[-1][1].last_error}", flush=True)
                 failed = True
     finally:
-        executor.shutdown(timeout_sec=2.0)
+        spin.stop()
         node.destroy_node()
         rclpy.try_shutdown(context=context)
         codes = graph.close()

@@ -6,7 +6,6 @@ filing its sequence number) is microseconds wide; here the client's send is
 slowed down so that every answer lands in it.  rclpy's own ActionClient loses
 those answers (the control case), the plotter's must not.
 """
-import threading
 import time
 
 import pytest
@@ -44,6 +43,7 @@ def graph():
     from rclpy.action import ActionServer
     from rclpy.context import Context
     from rclpy.executors import MultiThreadedExecutor
+    from plotter_bridge.nodes.spinning import SpinThread
     from plotter_interfaces.action import RunProgram
 
     context = Context()
@@ -62,8 +62,7 @@ def graph():
     executor = MultiThreadedExecutor(num_threads=4, context=context)
     executor.add_node(server_node)
     executor.add_node(client_node)
-    spinner = threading.Thread(target=executor.spin, daemon=True)
-    spinner.start()
+    spin = SpinThread(executor)
 
     def make(cls):
         client = cls(client_node, RunProgram, "run_program_race")
@@ -74,12 +73,11 @@ def graph():
     try:
         yield make
     finally:
-        executor.shutdown(2.0)
+        spin.stop()
         server.destroy()
         server_node.destroy_node()
         client_node.destroy_node()
         rclpy.shutdown(context=context)
-        spinner.join(5.0)
 
 
 def _goal(name: str):

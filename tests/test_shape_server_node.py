@@ -95,8 +95,8 @@ class Probe:
         self.executor = MultiThreadedExecutor(num_threads=4, context=self.context)
         self.executor.add_node(self.node)
         self.closing = threading.Event()
-        self.thread = threading.Thread(target=self.executor.spin, daemon=True)
-        self.thread.start()
+        from plotter_bridge.nodes.spinning import SpinThread
+        self.spin = SpinThread(self.executor)
 
     def wait_for_server_node(self, server: NodeProcess):
         """Until messages flow both ways on all three topics.
@@ -140,8 +140,7 @@ class Probe:
 
         self.closing.set()
         time.sleep(0.2)  # let a FakeStreamer goal still running end itself
-        self.executor.shutdown()
-        self.thread.join(5)                # out of the executor before the node goes
+        self.spin.stop()                   # out of the executor before the node goes
         self.node.destroy_node()
         rclpy.shutdown(context=self.context)
 
