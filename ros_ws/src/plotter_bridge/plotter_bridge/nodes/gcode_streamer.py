@@ -377,9 +377,17 @@ class GCodeStreamer(Node):
         progress = Progress()
         timing = self._timing(record)
 
+        # Feedback and the result come by different ways, and a feedback
+        # message sent before the result can be handled after it: once the
+        # result has set the pen's position, no feedback may take it back.
+        xy_lock = threading.Lock()
+        ended = []
+
         def relay(fb_msg):
             fb = fb_msg.feedback
-            self._last_xy = (fb.x_mm, fb.y_mm)
+            with xy_lock:
+                if not ended:
+                    self._last_xy = (fb.x_mm, fb.y_mm)
             progress.completed = max(progress.completed, int(fb.executed) - 1)
             if goal_handle is not None:
                 out = RunProgram.Feedback()
@@ -431,7 +439,9 @@ class GCodeStreamer(Node):
         res = res_future.result().result if res_future.done() else None
         if res is None:
             return Outcome(False, "canceled", 0, job_id, canceled=True)
-        self._last_xy = (res.x_mm, res.y_mm)
+        with xy_lock:
+            ended.append(True)
+            self._last_xy = (res.x_mm, res.y_mm)
         completed = len(record.commands) if res.success else int(res.completed)
         self.journal.update(job_id, Progress(completed, DONE if res.success else INTERRUPTED, res.message))
         lines_done = record.lines[completed - 1] if completed else 0
