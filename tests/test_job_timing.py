@@ -7,7 +7,7 @@ from types import SimpleNamespace
 import pytest
 
 from plotter_bridge.cli.progress import ProgressDisplay, clock_text
-from plotter_bridge.motion.commands import BoardCommand, from_text
+from plotter_bridge.motion.commands import from_text
 from plotter_bridge.motion.kinematics import Machine
 from plotter_bridge.motion.timing import JobProgress, command_seconds, pen_lengths, trapezoid_seconds
 
@@ -84,3 +84,14 @@ def test_plain_lines_off_a_terminal_and_a_redrawn_bar_on_one():
     assert len(lines) == 3 and "\r" not in plain.getvalue()
     assert bar.getvalue().count("\r[") >= 4 and "1:05 left" in bar.getvalue()
     assert [clock_text(s) for s in (4.4, 65, 3725)] == ["4 s", "1:05", "1:02:05"]
+
+
+def test_job_position_follows_feedback_until_the_result():
+    from plotter_bridge.motion.timing import JobPosition
+    position = JobPosition((1.0, 2.0))
+    assert position.xy == (1.0, 2.0)
+    position.feedback((3.0, 4.0))
+    assert position.xy == (3.0, 4.0)
+    position.result((5.0, 6.0))
+    position.feedback((3.5, 4.5))           # sent before the result, handled after it
+    assert position.xy == (5.0, 6.0)

@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import itertools
 import math
+import threading
 from typing import Callable, List, Sequence, Tuple
 
 from plotter_bridge.link.protocol import FIRMWARE_ACCEL
@@ -120,3 +121,30 @@ class JobProgress:
         left -= spent
         fraction = done / self.total_length if self.total_length > 0 else running / n
         return min(max(fraction, 0.0), 1.0), max(left, 0.0)
+
+
+class JobPosition:
+    """The pen's position (mm) a job reports: each feedback's while it runs,
+    then its result's for good.  Feedback and the result come by different
+    ways, and on a multi-threaded executor a feedback message sent before the
+    result can be handled after it, so a feedback after the result is dropped."""
+
+    def __init__(self, start: Tuple[float, float] = (0.0, 0.0)) -> None:
+        self._lock = threading.Lock()
+        self._xy = start
+        self._ended = False
+
+    def feedback(self, xy: Tuple[float, float]) -> None:
+        with self._lock:
+            if not self._ended:
+                self._xy = xy
+
+    def result(self, xy: Tuple[float, float]) -> None:
+        with self._lock:
+            self._xy = xy
+            self._ended = True
+
+    @property
+    def xy(self) -> Tuple[float, float]:
+        with self._lock:
+            return self._xy

@@ -65,7 +65,7 @@ from plotter_bridge.link.protocol import MAX_RATE
 from plotter_bridge.motion.commands import from_text
 from plotter_bridge.motion.compiler import MAX_PROGRAM_BYTES, StreamerConfig, compile_program
 from plotter_bridge.motion.planner import link_baud
-from plotter_bridge.motion.timing import JobProgress, command_seconds, pen_lengths
+from plotter_bridge.motion.timing import JobPosition, JobProgress, command_seconds, pen_lengths
 
 from .action_client import ActionClient
 from .jobs import JobQueue, Waker, Worker
@@ -178,7 +178,7 @@ class GCodeStreamer(Node):
         self._board: Optional[BoardState] = None
         self._board_changed = threading.Condition()
         self.create_subscription(BoardState, "state", self._on_state, latched(), callback_group=group)
-        self._last_xy = (0.0, 0.0)
+        self._position = JobPosition()
         self.pub_lease = self.create_publisher(String, "job_lease", 10)
 
     def _apply(self, names) -> None:
@@ -283,7 +283,7 @@ class GCodeStreamer(Node):
         result = RunProgram.Result()
         result.success, result.message, result.lines_done = out.success, out.message, out.lines_done
         result.job_id = out.job_id
-        result.x_mm, result.y_mm = self._last_xy
+        result.x_mm, result.y_mm = self._position.xy
         if goal_handle.is_cancel_requested and not out.success:
             goal_handle.canceled()
         elif out.success:
@@ -377,17 +377,12 @@ class GCodeStreamer(Node):
         progress = Progress()
         timing = self._timing(record)
 
-        # Feedback and the result come by different ways, and a feedback
-        # message sent before the result can be handled after it: once the
-        # result has set the pen's position, no feedback may take it back.
-        xy_lock = threading.Lock()
-        ended = []
+        # This job's own: a late feedback of an earlier job cannot touch it.
+        position = self._position = JobPosition(self._position.xy)
 
         def relay(fb_msg):
             fb = fb_msg.feedback
-            with xy_lock:
-                if not ended:
-                    self._last_xy = (fb.x_mm, fb.y_mm)
+            position.feedback((fb.x_mm, fb.y_mm))
             progress.completed = max(progress.completed, int(fb.executed) - 1)
             if goal_handle is not None:
                 out = RunProgram.Feedback()
@@ -439,9 +434,7 @@ class GCodeStreamer(Node):
         res = res_future.result().result if res_future.done() else None
         if res is None:
             return Outcome(False, "canceled", 0, job_id, canceled=True)
-        with xy_lock:
-            ended.append(True)
-            self._last_xy = (res.x_mm, res.y_mm)
+        position.result((res.x_mm, res.y_mm))
         completed = len(record.commands) if res.success else int(res.completed)
         self.journal.update(job_id, Progress(completed, DONE if res.success else INTERRUPTED, res.message))
         lines_done = record.lines[completed - 1] if completed else 0
