@@ -576,3 +576,30 @@ def test_a_job_whose_bridge_dies_ends_with_the_reason_and_the_streamer_rests(tmp
     finally:
         probe.close()
         g.close()
+
+
+# --------------------------------------------------------------------- one machine
+
+def test_a_job_planned_for_another_machine_than_the_bridges_is_refused_before_anything_moves(tmp_path):
+    """`-p steps_per_mm:=100` typed for the streamer alone: its jobs are
+    planned at 100 steps/mm while the bridge reports steps at 80.  The job
+    ends with both values named, and the board takes no step."""
+    from action_msgs.msg import GoalStatus
+    from plotter_interfaces.action import RunProgram
+    domain = new_domain()
+    g = PlotterGraph(domain, tmp_path, streamer_args=("-p", "steps_per_mm:=100"))
+    probe = Probe(domain)
+    try:
+        client = probe.action_client(RunProgram, "run_program")
+        assert client.wait_for_server(timeout_sec=60)
+        (handle,) = _send_all(client, [RunProgram.Goal(name="scaled", program="G21 G90\nG0 X10 Y5\nM2\n")], [[]])
+        res = _wait(handle.get_result_async(), 60, "the job's end")
+        assert res.status == GoalStatus.STATUS_ABORTED
+        assert "steps_per_mm 100.0 in the job, 80.0 here" in res.result.message, res.result.message
+        assert (res.result.x_mm, res.result.y_mm) == (0.0, 0.0)
+        time.sleep(0.5)
+        assert not (g.trace.exists() and read_trace(g.trace)), "the board stepped"
+        assert "planned for another machine" in g.bridge.output()
+    finally:
+        probe.close()
+        g.close()

@@ -42,6 +42,7 @@ class JobRecord:
     start_pen: bool = False
     rapid_rate: int = MAX_RATE        # steps/s for the travel of a resume
     start_z: Optional[int] = None     # Z in steps when the job began (None: the board has no Z axis)
+    machine: str = ""                 # what the commands were planned for (Machine.text(); "" = not recorded)
 
 
 @dataclass

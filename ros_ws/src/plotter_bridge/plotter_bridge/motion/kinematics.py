@@ -18,7 +18,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
-from typing import Tuple
+from typing import Dict, Optional, Tuple
 
 Point = Tuple[float, float]
 
@@ -119,6 +119,50 @@ class Machine:
         if self.kind == "hanging":
             return self.hanging.inverse(pen)
         return (pen[0] * self.steps_per_mm, pen[1] * self.steps_per_mm)
+
+    def settings(self) -> Dict[str, str]:
+        """The parameters (the nodes' names) that turn this machine's motor
+        counts into millimetres, those of its kind only, with exact values."""
+        out = {"machine": self.kind}
+        if self.kind == "hanging":
+            h = self.hanging
+            out.update(pulley_left=_exact(h.left), pulley_right=_exact(h.right),
+                       spool_circumference=_exact(h.spool_circumference), pulses_per_rev=_exact(h.pulses_per_rev))
+        else:
+            out["steps_per_mm"] = _exact(self.steps_per_mm)
+        out["z_mode"] = self.z_mode
+        if self.z_axis:
+            out["z_steps_per_mm"] = _exact(self.z_steps_per_mm)
+        return out
+
+    def text(self) -> str:
+        """settings() as words `name=value`: what a job was planned for."""
+        return " ".join(f"{k}={v}" for k, v in self.settings().items())
+
+    def refuses(self, planned: str) -> Optional[str]:
+        """Why commands planned for the machine `planned` (another Machine's
+        text()) must not run on this one, which would turn their steps into
+        other millimetres; None if they may ('' says nothing: not checked)."""
+        if not planned:
+            return None
+        words = planned.split()
+        if not all("=" in w for w in words):
+            return f"the job's machine {planned[:120]!r} is not name=value words"
+        theirs = dict(w.split("=", 1) for w in words)
+        mine = self.settings()
+        differ = [f"{k} {theirs.get(k, 'unset')} in the job, {mine.get(k, 'unset')} here"
+                  for k in sorted(set(theirs) | set(mine)) if theirs.get(k) != mine.get(k)]
+        if not differ:
+            return None
+        return ("the job was planned for another machine: " + "; ".join(differ)
+                + " (give gcode_streamer and serial_bridge the same machine parameters)")
+
+
+def _exact(v) -> str:
+    """A number, or a point, in words that compare equal only for equal values."""
+    if isinstance(v, tuple):
+        return "[" + ",".join(repr(float(c)) for c in v) + "]"
+    return repr(float(v))
 
 
 def check_z(z_mode: str, z_steps_per_mm: float) -> None:

@@ -317,7 +317,8 @@ class GCodeStreamer(Node):
                                   f"(firmware built without ZAXIS=1)")
         rapid = int(min(MAX_RATE, self.config.rapid_feed / 60.0 * self.config.motor_steps_per_mm()))
         record = JobRecord(uuid.uuid4().hex, name, [c.text for c in commands], [c.line for c in commands],
-                           start, bool(board.pen_down), rapid, board.z_steps if board.has_z else None)
+                           start, bool(board.pen_down), rapid, board.z_steps if board.has_z else None,
+                           self.machine.text())
         return self._stream(record, goal_handle)
 
     def _resume(self, job_id: str, board: BoardState, goal_handle) -> Outcome:
@@ -340,7 +341,8 @@ class GCodeStreamer(Node):
         commands, lines = resume_commands(record, completed, (board.x_steps, board.y_steps), bool(board.pen_down),
                                           z_at)
         new = JobRecord(uuid.uuid4().hex, f"{record.name} (resumed)", commands, lines,
-                        (board.x_steps, board.y_steps), bool(board.pen_down), record.rapid_rate, z_at)
+                        (board.x_steps, board.y_steps), bool(board.pen_down), record.rapid_rate, z_at,
+                        record.machine)
         self.journal.update(job_id, Progress(completed, INTERRUPTED, progress.message, new.job_id))
         line = record.lines[completed] if completed < len(record.lines) else 0
         self.get_logger().info(f"resuming {record.name} at command {completed + 1} of "
@@ -374,6 +376,7 @@ class GCodeStreamer(Node):
         goal.commands = record.commands
         goal.lines = record.lines
         goal.lease = self.lease
+        goal.machine = record.machine
         progress = Progress()
         timing = self._timing(record)
 

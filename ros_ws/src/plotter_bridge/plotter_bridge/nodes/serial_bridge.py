@@ -296,11 +296,16 @@ class SerialBridge(Node):
         result = StreamCommands.Result()
         job_id = self._job_id(goal_handle)
         try:
-            try:
-                job = self.session.start_job(list(req.commands), lines, float(req.lease))
-            except RuntimeError as exc:           # the last job has not let go of the board yet
-                result.message = str(exc)
-                self.get_logger().warn(f"job {job_id[:8]} refused: {exc}")
+            # Refused here, not in _on_goal, so that the client hears why.
+            why = self.machine.refuses(req.machine)
+            if why is None:
+                try:
+                    job = self.session.start_job(list(req.commands), lines, float(req.lease))
+                except RuntimeError as exc:       # the last job has not let go of the board yet
+                    why = str(exc)
+            if why is not None:
+                result.message = why
+                self.get_logger().warn(f"job {job_id[:8]} refused: {why}")
                 goal_handle.abort()
                 return result
             running = _Running(goal_handle, job, Future())
