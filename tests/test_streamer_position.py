@@ -106,3 +106,12 @@ def test_feedback_moves_the_position_while_the_job_runs(streamer):
     streamer._bridge.send_goal_async = watching.__get__(streamer._bridge)
     assert streamer._stream(record(JOB_A), None).success
     assert seen == [(25.0, 15.0)]
+
+
+def test_the_outcome_carries_the_position_its_job_ended_at(streamer):
+    # Taken on the worker as the job ends, before the worker can start the
+    # next job, which replaces the streamer's position.
+    streamer._bridge = Bridge([(50.0, 30.0)])
+    streamer.run = lambda *args, **kwargs: streamer._stream(record(JOB_A), None)
+    out = streamer._timed_run("G0 X50 Y30", "units", None, "")
+    assert out.success and out.xy == (50.0, 30.0)

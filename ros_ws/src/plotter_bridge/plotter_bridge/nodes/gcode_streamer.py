@@ -41,7 +41,7 @@ import time
 import traceback
 import uuid
 from dataclasses import dataclass, replace
-from typing import Callable, Optional
+from typing import Callable, Optional, Tuple
 
 from rclpy.action import ActionServer, CancelResponse, GoalResponse
 from rclpy.action.server import ServerGoalHandle
@@ -86,6 +86,7 @@ class Outcome:
     lines_done: int = 0
     job_id: str = ""
     canceled: bool = False
+    xy: Optional[Tuple[float, float]] = None    # the pen (mm) when the job ended
 
 
 def check_request(program: str, name: str, resume: str) -> Optional[str]:
@@ -234,7 +235,8 @@ class GCodeStreamer(Node):
 
     def _timed_run(self, text: str, name: str, goal_handle, resume: str, dialect: str = "") -> Outcome:
         t0 = time.monotonic()
-        out = self.run(text, name, goal_handle, resume, dialect)
+        # The position is taken here, on the worker, before it can start the next job.
+        out = replace(self.run(text, name, goal_handle, resume, dialect), xy=self._position.xy)
         if out.success:
             self.get_logger().info(f"{name}: {out.message} in {time.monotonic() - t0:.1f} s")
         elif out.canceled:
@@ -283,7 +285,7 @@ class GCodeStreamer(Node):
         result = RunProgram.Result()
         result.success, result.message, result.lines_done = out.success, out.message, out.lines_done
         result.job_id = out.job_id
-        result.x_mm, result.y_mm = self._position.xy
+        result.x_mm, result.y_mm = out.xy if out.xy is not None else self._position.xy
         if goal_handle.is_cancel_requested and not out.success:
             goal_handle.canceled()
         elif out.success:
