@@ -28,6 +28,7 @@ from plotter_bridge.sim.mock_board import MockBoard, MockBoardConfig
 from .gcode_streamer import GCodeStreamer
 from .serial_bridge import SerialBridge
 from .spinning import SpinThread
+from .teardown import teardown_watchdog
 
 ProgressCallback = Callable[[RunProgram.Feedback], None]
 
@@ -148,14 +149,18 @@ class LocalGraph:
         # left the executor: a callback still running, or a wait set still
         # holding the client, would fail on their destroyed handles.
         self._spin.stop()
-        self._client.destroy()
-        for node in (self.client_node, self.streamer, self.bridge):
-            node.destroy_node()
-        if self.board is not None:
-            self.board.stop()
-        if self._tmp is not None:
-            self._tmp.cleanup()
-        rclpy.try_shutdown(context=self._context)
+        stop_watchdog = teardown_watchdog()
+        try:
+            self._client.destroy()
+            for node in (self.client_node, self.streamer, self.bridge):
+                node.destroy_node()
+            if self.board is not None:
+                self.board.stop()
+            if self._tmp is not None:
+                self._tmp.cleanup()
+            rclpy.try_shutdown(context=self._context)
+        finally:
+            stop_watchdog()
 
     def __enter__(self) -> "LocalGraph":
         return self

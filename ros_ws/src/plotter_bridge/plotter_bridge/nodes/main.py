@@ -12,6 +12,7 @@ from rclpy.executors import ExternalShutdownException, MultiThreadedExecutor
 from rclpy.node import Node
 
 from .spinning import shutdown_after_callbacks
+from .teardown import teardown_watchdog
 
 EXIT_OK = 0
 EXIT_BAD_PARAMETER = 1
@@ -45,7 +46,11 @@ def run_node(make: Callable[[], Node], name: str, args: Optional[List[str]] = No
     finally:
         if executor is not None:
             shutdown_after_callbacks(executor)
-        if node is not None:
-            node.destroy_node()
-        rclpy.try_shutdown()
+        stop_watchdog = teardown_watchdog()
+        try:
+            if node is not None:
+                node.destroy_node()
+            rclpy.try_shutdown()
+        finally:
+            stop_watchdog()
     return EXIT_OK
