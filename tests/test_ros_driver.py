@@ -495,6 +495,42 @@ def test_a_missing_port_is_reported_at_once_and_again_more_slowly(tmp_path):
         bridge.close()
 
 
+def test_a_port_whose_board_does_not_answer_is_reported_in_state_and_diagnostics(tmp_path):
+    """The port opens (a pty nobody answers on: a board switched off, or
+    firmware at another baud rate), and no status report ever comes."""
+    import os
+    from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
+    from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus
+    from plotter_interfaces.msg import BoardState
+    domain = new_domain()
+    probe = Probe(domain)
+    states, diags = [], []
+    latched = QoSProfile(depth=1, reliability=ReliabilityPolicy.RELIABLE, durability=DurabilityPolicy.TRANSIENT_LOCAL)
+    probe.node.create_subscription(BoardState, "state", states.append, latched)
+    probe.node.create_subscription(DiagnosticArray, "/diagnostics", diags.append, 10)
+    master, slave = os.openpty()
+    bridge = NodeProcess(MODULES["serial_bridge"], domain, ("-r", "__ns:=/plotter", "--params-file", params_file(),
+                                                            "-p", f"port:={os.ttyname(slave)}"))
+    try:
+        wait_until(lambda: "[ERROR]" in bridge.output(), 20, "the bridge's error")
+        line = next(x for x in bridge.output().splitlines() if x.startswith("[ERROR]"))
+        assert "no answer from the board in 5 s: nothing came back on the port at 115200 baud" in line, line
+        wait_until(lambda: states and states[-1].state == BoardState.DISCONNECTED
+                   and states[-1].last_error.startswith("no answer from the board"), 10,
+                   "DISCONNECTED with the reason in /plotter/state")
+
+        def link_error():
+            return any(s.level == DiagnosticStatus.ERROR and "no answer from the board" in s.message
+                       for d in diags for s in d.status)
+        wait_until(link_error, 10, "the reason in /diagnostics")
+    finally:
+        probe.close()
+        assert bridge.interrupt() == 0
+        bridge.close()
+        os.close(master)
+        os.close(slave)
+
+
 # --------------------------------------------------------------------- the launch file
 
 def test_the_launch_file_starts_what_it_describes(tmp_path):

@@ -12,6 +12,10 @@ things go wrong:
   If the board still counts where it did, the job goes on from the board's
   `N`: what it had queued ran once, what it lost is sent again.  If the port
   stays away longer than `reconnect_timeout`, the job is aborted.
+- The port opens but no status report comes (a board switched off, another
+  device on the port, firmware at another baud rate): after
+  `answer_timeout` this goes to `log_error` and `last_error`, saying whether
+  any bytes came at all, and again at growing intervals while it lasts.
 - The board was reset (its start-up banner, or a status whose numbering the
   link cannot explain): the position is unknown until the origin is set
   again, and a running job is aborted, since a relative move cut short
@@ -52,6 +56,7 @@ class SessionConfig:
     backoff_idle: float = 10.0        # longest wait when no job does
     rt_retry: float = 0.15            # send an unconfirmed real-time byte again after this
     rt_timeout: float = 3.0           # give up confirming it
+    answer_timeout: float = 5.0       # an open port without a status report this long: say so
 
 
 @dataclass
@@ -154,6 +159,10 @@ class BoardSession:
         self._origin_cmd: Optional[Command] = None
         self._origin_result: Optional[str] = None
         self.board_resets = 0
+        self._silent_since = 0.0            # when the port opened (CONNECTING)
+        self._silence_next = 0.0            # when to say again that the board does not answer
+        self._silence_error = ""
+        self._bytes_at_open = 0
 
     # --- the pump (I/O thread) ------------------------------------------------------
     def pump(self) -> None:
@@ -172,6 +181,9 @@ class BoardSession:
                 self._check_lease(self.clock())
             except Exception as exc:  # serial.SerialException, OSError: the port is gone
                 self._lost(exc)
+                return
+            if self.connection == CONNECTING:
+                self._check_silence(self.clock())
 
     def _connect(self, now: float) -> None:
         try:
@@ -182,6 +194,8 @@ class BoardSession:
         self.open_failures = 0
         self.port = port
         self.connection = CONNECTING
+        self._silent_since = now
+        self._silence_next = now + self.config.answer_timeout
         if self.link is None:
             self.link = BoardLink(port, ack_timeout=self.config.ack_timeout,
                                   status_interval=self.config.status_interval,
@@ -192,8 +206,28 @@ class BoardSession:
             self.link.request_status()
         else:
             self.link.attach(port)
+        self._bytes_at_open = self.link.stats.bytes_received
         self.log("port open, waiting for the board's status")
         self._changed()
+
+    def _check_silence(self, now: float) -> None:
+        """Say that the open port brings no status report, and what came instead."""
+        if now < self._silence_next:
+            return
+        waited = now - self._silent_since
+        self._silence_next = now + min(max(2.0 * waited, self.config.answer_timeout), 60.0)
+        got = self.link.stats.bytes_received - self._bytes_at_open
+        baud = f" at {self.config.baud} baud" if self.config.baud else ""
+        if got == 0:
+            text = (f"no answer from the board in {waited:.0f} s: nothing came back on the port{baud}; "
+                    f"is the board powered and connected to this port?")
+        else:
+            text = (f"no status report from the board in {waited:.0f} s: {got} bytes came back on the port{baud}, "
+                    f"none of them a line the firmware sends; is the firmware built for this baud rate "
+                    f"(the default image talks at 9600, one built with BAUD=115200 at 115200)?")
+        self._silence_error = text
+        self._set_error(text)
+        self.log_error(text)
 
     def _open_failed(self, now: float, exc: Exception) -> None:
         job = self.job
@@ -261,6 +295,9 @@ class BoardSession:
             self._sync(st)
         if self.connection != CONNECTED:
             self.connection = CONNECTED
+            if self._silence_error and self.last_error == self._silence_error:
+                self._set_error("")
+            self._silence_error = ""
             job = self.job
             if job is not None and job.result is None and job.disconnected_at is not None:
                 job.disconnected_at = None

@@ -46,7 +46,8 @@ from plotter_interfaces.action import StreamCommands
 from plotter_interfaces.msg import BoardState
 from plotter_interfaces.srv import JobStatus
 
-from plotter_bridge.link.board_session import DISCONNECTED, QUEUE_SIZE, BoardSession, Job, JobResult, SessionConfig
+from plotter_bridge.link.board_session import (CONNECTING, DISCONNECTED, QUEUE_SIZE, BoardSession, Job, JobResult,
+                                               SessionConfig)
 from plotter_bridge.link.protocol import Status
 
 from .jobs import Waker
@@ -237,7 +238,10 @@ class SerialBridge(Node):
                                   self.session.last_error, self.session.job)
 
     def _on_change(self) -> None:
-        if self.session.connection == DISCONNECTED:
+        # An open port whose board has not answered (an error says so) is no
+        # more use than a missing one.
+        if self.session.connection == DISCONNECTED or \
+                (self.session.connection == CONNECTING and self.session.last_error):
             self._telemetry.on_link_lost(self.session.last_error)
             s = self._state_msg(BoardState.DISCONNECTED)
             st = self.session.link.status if self.session.link else None
