@@ -49,6 +49,7 @@ from plotter_interfaces.srv import JobStatus
 from plotter_bridge.link.board_session import (CONNECTING, DISCONNECTED, QUEUE_SIZE, BoardSession, Job, JobResult,
                                                SessionConfig)
 from plotter_bridge.link.protocol import Status
+from plotter_bridge.link.serial_port import open_port
 
 from .jobs import Waker
 from .main import DEFAULT_NAMESPACE, run_node
@@ -194,11 +195,7 @@ class SerialBridge(Node):
 
     # --- serial I/O thread ---------------------------------------------------
     def _open_port(self):
-        import serial  # pyserial
-        try:
-            return serial.serial_for_url(self.port_name, baudrate=int(self.params["baud"]), timeout=0)
-        except Exception as exc:
-            raise OSError(f"cannot open {self.port_name}: {open_error(exc)}") from exc
+        return open_port(self.port_name, int(self.params["baud"]))
 
     def _io_loop(self) -> None:
         while self._alive:
@@ -411,14 +408,6 @@ class SerialBridge(Node):
         self._io.join(timeout=2)
         self.session.close()
         super().destroy_node()
-
-
-def open_error(exc: Exception) -> str:
-    """The reason a port did not open, without pyserial's repetition of its name."""
-    cause = exc.__context__
-    if isinstance(cause, OSError) and cause.strerror:
-        return cause.strerror
-    return str(exc)
 
 
 def main(args=None) -> int:
