@@ -115,3 +115,17 @@ def test_the_outcome_carries_the_position_its_job_ended_at(streamer):
     streamer.run = lambda *args, **kwargs: streamer._stream(record(JOB_A), None)
     out = streamer._timed_run("G0 X50 Y30", "units", None, "")
     assert out.success and out.xy == (50.0, 30.0)
+
+
+def test_a_job_for_a_disconnected_board_is_refused_with_the_bridges_reason(streamer):
+    from plotter_interfaces.msg import BoardState
+    from plotter_bridge.nodes.gcode_streamer import GCodeStreamer
+    streamer._bridge = bridge = Bridge([])
+    streamer._board_state = lambda timeout=5.0: GCodeStreamer._board_state(streamer, 0.1)   # no wait for a connection
+    why = "cannot open /dev/ttyUSB0: another program has it open (a serial_bridge, or a plotter command with --port)"
+    streamer._on_state(BoardState(state=BoardState.DISCONNECTED, last_error=why))
+    out = streamer.run("G0 X10\n", "units", None)
+    assert not out.success and out.message == f"board not connected: {why}"
+    streamer._on_state(BoardState(state=BoardState.DISCONNECTED))
+    assert streamer.run("G0 X10\n", "units", None).message == "board not connected"
+    assert bridge.callbacks == []                  # nothing was sent

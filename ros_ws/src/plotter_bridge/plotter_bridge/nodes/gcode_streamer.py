@@ -298,8 +298,10 @@ class GCodeStreamer(Node):
         """Run one program, or resume a journalled job (on the worker thread:
         it waits for the board)."""
         board = self._board_state()
-        if board is None or board.state == BoardState.DISCONNECTED:
+        if board is None:
             return Outcome(False, "board not connected (no state from serial_bridge)")
+        if board.state == BoardState.DISCONNECTED:
+            return Outcome(False, "board not connected" + (f": {board.last_error}" if board.last_error else ""))
         if not board.position_known:
             return Outcome(False, "position unknown after a board reset: call set_origin first")
         start = (board.x_steps, board.y_steps)
