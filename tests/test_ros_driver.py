@@ -456,16 +456,28 @@ def test_positions_are_in_metres_and_mm_fields_in_millimetres(graph):
 
 # --------------------------------------------------------------------- a missing port
 
-def test_a_missing_port_is_reported_at_once_and_again_more_slowly(tmp_path):
+def _state_and_diagnostics(domain):
+    """A probe on `domain` keeping /plotter/state and /diagnostics: (probe, states, diagnostic arrays)."""
     from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
-    from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus
+    from diagnostic_msgs.msg import DiagnosticArray
     from plotter_interfaces.msg import BoardState
-    domain = new_domain()
     probe = Probe(domain)
     states, diags = [], []
     latched = QoSProfile(depth=1, reliability=ReliabilityPolicy.RELIABLE, durability=DurabilityPolicy.TRANSIENT_LOCAL)
     probe.node.create_subscription(BoardState, "state", states.append, latched)
     probe.node.create_subscription(DiagnosticArray, "/diagnostics", diags.append, 10)
+    return probe, states, diags
+
+
+def _diagnosed_error(diags, text: str) -> bool:
+    from diagnostic_msgs.msg import DiagnosticStatus
+    return any(s.level == DiagnosticStatus.ERROR and text in s.message for d in diags for s in d.status)
+
+
+def test_a_missing_port_is_reported_at_once_and_again_more_slowly(tmp_path):
+    from plotter_interfaces.msg import BoardState
+    domain = new_domain()
+    probe, states, diags = _state_and_diagnostics(domain)
     t0 = time.monotonic()
     bridge = NodeProcess(MODULES["serial_bridge"], domain, ("-r", "__ns:=/plotter", "--params-file", params_file(),
                                                             "-p", "port:=/nonexistent/ttyUSB9"))
@@ -483,11 +495,7 @@ def test_a_missing_port_is_reported_at_once_and_again_more_slowly(tmp_path):
         assert gaps[-1] > 2 * gaps[0], gaps
         wait_until(lambda: states and states[-1].state == BoardState.DISCONNECTED
                    and "/nonexistent/ttyUSB9" in states[-1].last_error, 10, "DISCONNECTED in /plotter/state")
-
-        def link_error():
-            return any(s.level == DiagnosticStatus.ERROR and "/nonexistent/ttyUSB9" in s.message
-                       for d in diags for s in d.status)
-        wait_until(link_error, 10, "the port's error in /diagnostics")
+        wait_until(lambda: _diagnosed_error(diags, "/nonexistent/ttyUSB9"), 10, "the port's error in /diagnostics")
         assert bridge.alive()
     finally:
         probe.close()
@@ -499,15 +507,9 @@ def test_a_port_whose_board_does_not_answer_is_reported_in_state_and_diagnostics
     """The port opens (a pty nobody answers on: a board switched off, or
     firmware at another baud rate), and no status report ever comes."""
     import os
-    from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
-    from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus
     from plotter_interfaces.msg import BoardState
     domain = new_domain()
-    probe = Probe(domain)
-    states, diags = [], []
-    latched = QoSProfile(depth=1, reliability=ReliabilityPolicy.RELIABLE, durability=DurabilityPolicy.TRANSIENT_LOCAL)
-    probe.node.create_subscription(BoardState, "state", states.append, latched)
-    probe.node.create_subscription(DiagnosticArray, "/diagnostics", diags.append, 10)
+    probe, states, diags = _state_and_diagnostics(domain)
     master, slave = os.openpty()
     bridge = NodeProcess(MODULES["serial_bridge"], domain, ("-r", "__ns:=/plotter", "--params-file", params_file(),
                                                             "-p", f"port:={os.ttyname(slave)}"))
@@ -518,11 +520,7 @@ def test_a_port_whose_board_does_not_answer_is_reported_in_state_and_diagnostics
         wait_until(lambda: states and states[-1].state == BoardState.DISCONNECTED
                    and states[-1].last_error.startswith("no answer from the board"), 10,
                    "DISCONNECTED with the reason in /plotter/state")
-
-        def link_error():
-            return any(s.level == DiagnosticStatus.ERROR and "no answer from the board" in s.message
-                       for d in diags for s in d.status)
-        wait_until(link_error, 10, "the reason in /diagnostics")
+        wait_until(lambda: _diagnosed_error(diags, "no answer from the board"), 10, "the reason in /diagnostics")
     finally:
         probe.close()
         assert bridge.interrupt() == 0

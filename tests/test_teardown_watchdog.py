@@ -16,10 +16,9 @@ STUCK = textwrap.dedent("""
     import ctypes, sys
     import plotter_bridge.nodes.teardown as teardown
     teardown.TEARDOWN_S = 1
-    stop = teardown.teardown_watchdog()
-    if sys.argv[1] == "stuck":
-        ctypes.PyDLL(None).sleep(30)      # a C call that keeps the GIL, as the deadlock does
-    stop()
+    with teardown.teardown_watchdog():
+        if sys.argv[1] == "stuck":
+            ctypes.PyDLL(None).sleep(30)  # a C call that keeps the GIL, as the deadlock does
     print("torn down", flush=True)
 """)
 
@@ -63,5 +62,6 @@ def test_the_harness_tells_a_middleware_deadlock_from_other_ends():
     assert stuck_in_dds_teardown(-signal.SIGALRM, CI_DUMP) == "rclpy/publisher.py in destroy"
     assert stuck_in_dds_teardown(1, CI_DUMP) == ""                       # another exit
     assert stuck_in_dds_teardown(-signal.SIGALRM, "no dump") == ""
-    ours = CI_DUMP.replace('rclpy/publisher.py", line 105 in destroy', 'plotter_bridge/sim/mock_board.py", line 9 in stop')
+    ours = CI_DUMP.replace('rclpy/publisher.py", line 105 in destroy',
+                           'plotter_bridge/sim/mock_board.py", line 9 in stop')
     assert stuck_in_dds_teardown(-signal.SIGALRM, ours) == ""             # stuck in this project's code

@@ -125,14 +125,11 @@ class GraphClient:
         import rclpy
         from plotter_bridge.nodes.teardown import teardown_watchdog
         self._spin.stop()                      # out of the executor before anything is destroyed
-        stop_watchdog = teardown_watchdog()
-        try:
+        with teardown_watchdog():
             for client in self._clients:
                 client.destroy()
             self.node.destroy_node()
             rclpy.try_shutdown(context=self._context)
-        finally:
-            stop_watchdog()
 
     def __enter__(self) -> "GraphClient":
         return self

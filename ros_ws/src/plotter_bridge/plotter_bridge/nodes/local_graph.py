@@ -149,8 +149,7 @@ class LocalGraph:
         # left the executor: a callback still running, or a wait set still
         # holding the client, would fail on their destroyed handles.
         self._spin.stop()
-        stop_watchdog = teardown_watchdog()
-        try:
+        with teardown_watchdog():
             self._client.destroy()
             for node in (self.client_node, self.streamer, self.bridge):
                 node.destroy_node()
@@ -159,8 +158,6 @@ class LocalGraph:
             if self._tmp is not None:
                 self._tmp.cleanup()
             rclpy.try_shutdown(context=self._context)
-        finally:
-            stop_watchdog()
 
     def __enter__(self) -> "LocalGraph":
         return self

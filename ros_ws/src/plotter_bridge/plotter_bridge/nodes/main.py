@@ -46,11 +46,8 @@ def run_node(make: Callable[[], Node], name: str, args: Optional[List[str]] = No
     finally:
         if executor is not None:
             shutdown_after_callbacks(executor)
-        stop_watchdog = teardown_watchdog()
-        try:
+        with teardown_watchdog():
             if node is not None:
                 node.destroy_node()
             rclpy.try_shutdown()
-        finally:
-            stop_watchdog()
     return EXIT_OK

@@ -9,27 +9,30 @@ stack, and SIGALRM's default action ends the process.
 """
 from __future__ import annotations
 
+import contextlib
 import faulthandler
 import signal
 import threading
-from typing import Callable
+from typing import Iterator
 
 #: Seconds the destruction may take before the stacks are printed; one more,
 #: and the process ends (exit status -SIGALRM, 142 in a shell).
 TEARDOWN_S = 8
 
 
-def teardown_watchdog() -> Callable[[], None]:
-    """Start the watchdog; the function returned stops it.  Not armed off
-    the main thread, nor where SIGALRM has a handler: the alarm is not
-    this code's to take there."""
+@contextlib.contextmanager
+def teardown_watchdog() -> Iterator[None]:
+    """The watchdog over the `with` block.  Not armed off the main thread,
+    nor where SIGALRM has a handler: the alarm is not this code's to take
+    there."""
     if threading.current_thread() is not threading.main_thread() \
             or signal.getsignal(signal.SIGALRM) != signal.SIG_DFL:
-        return lambda: None
+        yield
+        return
     faulthandler.dump_traceback_later(TEARDOWN_S)
     signal.alarm(TEARDOWN_S + 1)
-
-    def stop() -> None:
+    try:
+        yield
+    finally:
         signal.alarm(0)
         faulthandler.cancel_dump_traceback_later()
-    return stop
