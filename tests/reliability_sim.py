@@ -71,8 +71,8 @@ class SimRig:
         s = self.session
         assert self.run_until(lambda: s.connection == "connected" and s.link.outstanding == 0, 60.0)
 
-    def start(self, commands: List[str], lease: float = 0.0) -> Job:
-        job = self.session.start_job(commands, list(range(1, len(commands) + 1)), lease)
+    def start(self, commands: List[str]) -> Job:
+        job = self.session.start_job(commands, list(range(1, len(commands) + 1)))
         assert job.result is None, job.result
         return job
 

@@ -99,8 +99,8 @@ def test_every_parameter_has_a_descriptor_saying_what_it_may_be(lone_nodes):
     from rcl_interfaces.msg import ParameterType
     procs, probe = lone_nodes
     read_only = {"machine", "steps_per_mm", "port", "baud", "link", "trace", "journal_dir", "queue_limit"}
-    changeable = {"x_max", "acceleration", "status_hz", "default_size", "unplug_for", "lease"}
-    ranged = {"status_hz", "acceleration", "baud", "default_size", "lease", "x_max"}
+    changeable = {"x_max", "acceleration", "status_hz", "default_size", "unplug_for", "bridge_timeout"}
+    ranged = {"status_hz", "acceleration", "baud", "default_size", "bridge_timeout", "x_max"}
     seen = set()
     for name in MODULES:
         client = _param_client(probe, name)
@@ -124,7 +124,7 @@ def test_set_parameters_is_applied_or_refused_with_a_reason(lone_nodes):
     procs, probe = lone_nodes
     streamer = _param_client(probe, "gcode_streamer")
     refusals = [("x_max", -5.0, "x_max"), ("x_max", "wide", "x_max"), ("acceleration", math.nan, "acceleration"),
-                ("acceleration", 0.0, "acceleration"), ("x_min", 300.0, "x_min"), ("lease", -1, "lease"),
+                ("acceleration", 0.0, "acceleration"), ("x_min", 300.0, "x_min"), ("bridge_timeout", 5.0, "bridge_timeout"),
                 ("steps_per_mm", 0.0, "read-only"), ("steps_per_mm", 90.0, "read-only"),
                 ("junction_deviation", -0.1, "junction_deviation"), ("lookahead", 3, "lookahead")]
     for name, value, word in refusals:
@@ -155,7 +155,7 @@ BAD_VALUES = [
     ("serial_bridge", "steps_per_mm", "nan"), ("serial_bridge", "status_hz", "fast"),
     ("serial_bridge", "baud", "0"), ("serial_bridge", "port", "''"),
     ("gcode_streamer", "x_max", "-5"), ("gcode_streamer", "acceleration", "nan"),
-    ("gcode_streamer", "acceleration", "0"), ("gcode_streamer", "lease", "0.0"),
+    ("gcode_streamer", "acceleration", "0"), ("gcode_streamer", "bridge_timeout", "0.0"),
     ("gcode_streamer", "machine", "delta"), ("gcode_streamer", "pulley_left", "[1.0]"),
     ("mock_board", "baud", "-9600"), ("mock_board", "faults", "drop=2"),
     ("mock_board", "steps_per_mm", "true"),

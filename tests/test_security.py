@@ -36,7 +36,6 @@ def test_only_the_operator_publishes_shapes_and_calls_estop():
         assert allowed("services", "request", service) == {"/plotter/operator"}, service
         assert allowed("services", "reply", service) == {"/plotter/serial_bridge"}, service
     assert allowed("actions", "call", "stream_commands") == {"/plotter/gcode_streamer"}
-    assert allowed("topics", "publish", "job_lease") == {"/plotter/gcode_streamer"}
 
 
 def test_policy_covers_what_each_node_uses():

@@ -24,9 +24,10 @@ things go wrong:
   three a pair of the same byte, after a line end) that noise may destroy,
   or a half-received line may swallow: each is sent again until a status
   report shows it took effect.
-- A job whose lease runs out (its client stopped renewing it) stops at a
-  command boundary: nothing more is sent, the board finishes what it has
-  acknowledged, and the job ends with the exact number of commands done.
+- A job, once started, belongs to the session: it holds every command, so
+  it runs to its end whatever its client does (stalls, loses the network,
+  dies).  Only cancel(), an e-stop or reset, a board alarm or reset, or the
+  port away longer than `reconnect_timeout` end it early.
 
 The caller runs `pump()` in a loop on one thread; everything else may be
 called from other threads.  Waits happen outside the lock.
@@ -70,12 +71,8 @@ class JobResult:
 @dataclass
 class Job:
     commands: List[Command]
-    lease: float = 0.0                  # seconds without renew() before the job stops; 0 = none
-    renewed_at: float = 0.0
     error: Optional[str] = None         # set: the job failed, the board is being stopped
     interrupted: bool = False           # it ended inside a command (stop, reset)
-    stopping: Optional[str] = None      # nothing more is sent; ends when the board rests
-    stop_at: float = 0.0
     acknowledged: int = 0
     started: int = 0                    # from the last status that could be trusted
     status_at_last_ack: int = 0
@@ -178,7 +175,6 @@ class BoardSession:
             try:
                 self.link.poll()
                 self._retry_realtime(self.clock())
-                self._check_lease(self.clock())
             except Exception as exc:  # serial.SerialException, OSError: the port is gone
                 self._lost(exc)
                 return
@@ -372,7 +368,7 @@ class BoardSession:
         self.link.discard()
 
     # --- jobs ---------------------------------------------------------------------
-    def start_job(self, commands: List[str], lines: List[int], lease: float = 0.0) -> Job:
+    def start_job(self, commands: List[str], lines: List[int]) -> Job:
         """Queue a job; its `result` is set when it ends (see wait_job)."""
         with self.lock:
             if self.job is not None and self.job.result is None:
@@ -393,17 +389,12 @@ class BoardSession:
                 return job
             if self._resync:
                 self._sync(st)
-            job = Job([self.link.submit(c, tag=ln) for c, ln in zip(commands, lines)],
-                      lease=lease, renewed_at=self.clock())
+            job = Job([self.link.submit(c, tag=ln) for c, ln in zip(commands, lines)])
             if st.state == "Idle" and st.queue_free == QUEUE_SIZE:
                 dx, dy = displacement(commands)
                 job.expected_end = (st.x + dx, st.y + dy)
             self.job = job
             return job
-
-    def renew(self, job: Job) -> None:
-        with self.lock:
-            job.renewed_at = self.clock()
 
     def wait_job(self, job: Job, timeout: float) -> Optional[JobResult]:
         with self._cond:
@@ -414,19 +405,6 @@ class BoardSession:
         """(acknowledged, started, line of the command executing)."""
         with self.lock:
             return job.acknowledged, job.started, job.line_of(job.started - 1)
-
-    def _check_lease(self, now: float) -> None:
-        job = self.job
-        if job is None or job.result is not None or job.lease <= 0 or job.stopping or job.error:
-            return
-        if now - job.renewed_at > job.lease:
-            self._stop_feeding(job, f"client gone (no renewal for {job.lease:g} s)")
-
-    def _stop_feeding(self, job: Job, why: str) -> None:
-        job.stopping = why
-        job.stop_at = self.clock()
-        self.link.discard()
-        self.log(f"{why}: sending nothing more; the board finishes what it acknowledged")
 
     def _fail(self, job: Job, why: str, stop: bool) -> None:
         """The job cannot go on: discard what is unsent, stop the board (hold,
@@ -450,12 +428,6 @@ class BoardSession:
                 return
             if at_rest and self._rt is None:
                 self._finish(job, False, job.error, job.started, max(job.started - 1, 0))
-            return
-        if job.stopping is not None:
-            if at_rest and self.clock() - job.stop_at > 0.3:
-                self._finish(job, False, f"{job.stopping}: stopped after {job.started} of "
-                             f"{len(job.commands)} commands (line {job.line_of(job.started - 1)})",
-                             job.started, job.started)
             return
         if (link.outstanding == 0 and self.status_count > job.status_at_last_ack
                 and st.state == "Idle" and st.queue_free == QUEUE_SIZE):

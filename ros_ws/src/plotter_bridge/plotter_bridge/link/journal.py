@@ -3,9 +3,9 @@
 A job is written before anything is sent (`<id>.job.json`: name, board
 commands with their source lines, where the pen started) and its progress is
 kept beside it (`<id>.progress.json`: commands the board finished, state,
-message), each file replaced atomically.  If the streamer dies, the job
-stops (the bridge's lease runs out) and a later `resume` continues it from
-the first command not finished: the pen travels, raised, to where that
+message), each file replaced atomically.  A job that ended part-way (a
+cancel, an e-stop, the board's port or the serial bridge away too long) is
+continued by a later `resume` from the first command not finished: the pen travels, raised, to where that
 command starts if it is not already there, and the rest runs.  A Z axis
 goes back to where that command starts as well, alone, in the order of a
 G0: up before the travel, down after it.

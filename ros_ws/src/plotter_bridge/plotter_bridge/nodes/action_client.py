@@ -6,7 +6,7 @@ executor, the server's answer can be taken in between: the client logs
 "Ignoring unexpected goal response", and the future never completes
 (ros2/rclpy#1123, fixed upstream after 7.1.6).  The plotter sends from its
 job threads and from the command-line client's main thread, so it met this:
-a job that the bridge had accepted was never followed, and its lease ran out.
+a job that the bridge had accepted was never followed to its end.
 
 ActionClient here files every request under a lock, and the executor waits
 for that lock before it matches an answer, so an answer can only be matched

@@ -18,12 +18,14 @@ the program's name (its leading comment, which shape_server writes, or
 INFO with its time.
 
 Every job is journalled (link/journal.py, parameter `journal_dir`) before it is
-sent, with the board's progress as the bridge reports it.  The streamer
-renews the job's lease on `job_lease` while it runs; if the streamer dies the
-lease runs out and the bridge stops the job at a command boundary.  A
-`run_program` goal with `resume` set to the job's id (`plotter resume ID`)
-then finishes it from the first command not completed, after asking the
-bridge (`job_status`) how far the job got.
+sent, with the board's progress as the bridge reports it.  Once the bridge
+has accepted a job it holds all of it and draws it to the end, whatever
+happens to this node: a stall, a lost network or a crash here never cuts a
+drawing short.  If the bridge cannot be reached for `bridge_timeout` seconds
+the job is reported interrupted, with where it was and the command that
+finishes it: a `run_program` goal with `resume` set to the job's id
+(`plotter resume ID`) asks the bridge (`job_status`) how far the job got
+and finishes it from the first command not completed (or reports it done).
 
 With `z_mode:=axis` (a machine with a third axis, firmware ZAXIS=1) G-code Z
 moves that axis, from where the board reports it, inside `z_min`..`z_max`
@@ -41,7 +43,7 @@ import time
 import traceback
 import uuid
 from dataclasses import dataclass, replace
-from typing import Callable, Optional, Tuple
+from typing import Optional, Tuple
 
 from rclpy.action import ActionServer, CancelResponse, GoalResponse
 from rclpy.action.server import ServerGoalHandle
@@ -75,7 +77,6 @@ from .params import (COORDINATE, MACHINE, WORK_AREA, NodeParameters, ParamSpec, 
 from .qos import latched
 
 MAX_NAME_LEN = 200
-BRIDGE_LOST_S = 10.0             # s without the bridge's action server before a running job is given up
 GOAL_ANSWER_S = 30.0             # s for the bridge to answer a goal (a resume asks it what ran)
 
 
@@ -128,8 +129,9 @@ SPECS = (
               "degrees", low=0.0, high=255.0),
     *MACHINE,
     ParamSpec("journal_dir", "", "directory of the job journal ('' = $ROS_HOME/plotter_journal)", read_only=True),
-    ParamSpec("lease", 2.0, "how long the bridge goes on with a job after this node stops renewing it", "s",
-              low=0.1, high=3600.0),
+    ParamSpec("bridge_timeout", 60.0, "how long a running job waits for a serial bridge that cannot be reached "
+                                      "before it is reported interrupted (the bridge goes on drawing it)", "s",
+              low=30.0, high=3600.0),
     ParamSpec("queue_limit", 16, "jobs that may wait for their turn; more are refused", "jobs",
               low=1, high=1000, read_only=True),
 )
@@ -180,16 +182,11 @@ class GCodeStreamer(Node):
         self._board_changed = threading.Condition()
         self.create_subscription(BoardState, "state", self._on_state, latched(), callback_group=group)
         self._position = JobPosition()
-        self.pub_lease = self.create_publisher(String, "job_lease", 10)
 
     def _apply(self, names) -> None:
         self.config = streamer_config(self.params.values())
         self.get_logger().info("parameters applied from the next job on: "
                                + ", ".join(f"{n} = {self.params[n]}" for n in names))
-
-    @property
-    def lease(self) -> float:
-        return float(self.params["lease"])
 
     def _on_state(self, msg: BoardState) -> None:
         with self._board_changed:
@@ -354,12 +351,11 @@ class GCodeStreamer(Node):
         return self._stream(new, goal_handle)
 
     def _bridge_job(self, job_id: str) -> Optional[JobStatus.Response]:
-        """What the bridge knows of one of its jobs, once it has ended (a job
-        whose streamer died ends when its lease runs out); None if the
-        bridge does not answer."""
+        """What the bridge knows of one of its jobs, after waiting a little for
+        it to end if it still runs; None if the bridge does not answer."""
         if not self._job_status.wait_for_service(timeout_sec=5.0):
             return None
-        deadline = time.monotonic() + 5.0 + self.lease * 2
+        deadline = time.monotonic() + 5.0
         while True:
             future = self._job_status.call_async(JobStatus.Request(job_id=job_id))
             if not _wait(future, 5.0):
@@ -379,7 +375,6 @@ class GCodeStreamer(Node):
         goal = StreamCommands.Goal()
         goal.commands = record.commands
         goal.lines = record.lines
-        goal.lease = self.lease
         goal.machine = record.machine
         progress = Progress()
         timing = self._timing(record)
@@ -399,40 +394,38 @@ class GCodeStreamer(Node):
                 out.x_mm, out.y_mm = fb.x_mm, fb.y_mm
                 goal_handle.publish_feedback(out)
 
-        lease = String(data=job_id)
-        self.pub_lease.publish(lease)
         send = self._bridge.send_goal_async(goal, feedback_callback=relay,
                                             goal_uuid=UUID(uuid=list(bytes.fromhex(job_id))))
-        # The bridge starts the job before its answer arrives: a slow answer
-        # (a loaded machine) must not let the lease run out meanwhile.
-        if not wait_renewing(send, GOAL_ANSWER_S, self.lease / 4, lambda: self.pub_lease.publish(lease)):
-            self.journal.update(job_id, Progress(0, INTERRUPTED, "serial bridge did not answer"))
-            return Outcome(False, "serial bridge did not answer", 0, job_id)
+        if not _wait(send, GOAL_ANSWER_S):
+            # The bridge may have taken the job and be drawing it: say how to find out.
+            why = (f"serial bridge did not answer in {GOAL_ANSWER_S:g} s; if it took the job it draws it: "
+                   f"plotter resume {job_id} finishes it or reports it done")
+            self.journal.update(job_id, Progress(0, INTERRUPTED, why))
+            return Outcome(False, why, 0, job_id)
         inner = send.result()
         if not inner.accepted:
             self.journal.update(job_id, Progress(0, INTERRUPTED, "serial bridge refused the job"))
             return Outcome(False, "serial bridge refused the job (busy, disconnected or bad commands)", 0, job_id)
         res_future = inner.get_result_async()
-        last_renew = time.monotonic()
         journalled = -1
         bridge_seen = time.monotonic()
+        bridge_timeout = float(self.params["bridge_timeout"])
         while not res_future.done():
-            if not self.context.ok():               # the node is stopping: the lease ends the job
-                return Outcome(False, "the streamer stopped", 0, job_id)
+            if not self.context.ok():               # the node is stopping; the bridge draws on
+                return Outcome(False, f"the streamer stopped; the bridge goes on with the job: plotter resume "
+                                      f"{job_id} finishes it or reports it done", 0, job_id)
             if goal_handle is not None and goal_handle.is_cancel_requested:
                 inner.cancel_goal_async()
                 _wait(res_future, 10.0)
                 break
-            _wait(res_future, min(0.05, self.lease / 4))
+            _wait(res_future, 0.05)
             now = time.monotonic()
-            if now - last_renew >= self.lease / 4:
-                self.pub_lease.publish(lease)
-                last_renew = now
             if self._bridge.server_is_ready():
                 bridge_seen = now
-            elif now - bridge_seen > BRIDGE_LOST_S:
-                why = (f"the serial bridge went away {BRIDGE_LOST_S:g} s ago, after command {progress.completed} "
-                       f"of {len(record.commands)}: start it again, then plotter resume {job_id}")
+            elif now - bridge_seen > bridge_timeout:
+                why = (f"the serial bridge could not be reached for {bridge_timeout:g} s, after command "
+                       f"{progress.completed} of {len(record.commands)}; if it still runs it draws the job on: "
+                       f"plotter resume {job_id} finishes it or reports it done")
                 self.journal.update(job_id, Progress(progress.completed, INTERRUPTED, why))
                 return Outcome(False, why, 0, job_id)
             if progress.completed != journalled:
@@ -466,19 +459,6 @@ def _wait(future, timeout: float) -> bool:
     event = threading.Event()
     future.add_done_callback(lambda _: event.set())
     return event.wait(timeout) or future.done()
-
-
-def wait_renewing(future, timeout: float, every: float, renew: Callable[[], None]) -> bool:
-    """Wait up to timeout s for the future, calling renew() every `every` s
-    meanwhile; True if it completed."""
-    event = threading.Event()
-    future.add_done_callback(lambda _: event.set())
-    deadline = time.monotonic() + timeout
-    while not event.wait(max(0.0, min(every, deadline - time.monotonic()))):
-        if time.monotonic() >= deadline:
-            return future.done()
-        renew()
-    return True
 
 
 def main(args=None) -> int:

@@ -8,7 +8,10 @@ in millimetres) from the board's status reports; offers `estop`, `hold`,
 (plotter_interfaces/JobStatus); serves `stream_commands`
 (plotter_interfaces/action/StreamCommands) to run a job of board commands,
 one job at a time: a goal that comes while one runs is rejected (the
-streamer queues jobs; the bridge only runs them).
+streamer queues jobs; the bridge only runs them).  An accepted job runs to
+its end whatever its client does: only a cancel, an e-stop or reset, a
+board alarm or reset, or the port away longer than `reconnect_timeout` end
+it early (link/board_session.py).
 
 A port that cannot be opened is logged at ERROR at once, naming it and the
 reason, and again at each attempt (attempts come further apart, up to 10 s);
@@ -24,7 +27,6 @@ with the reason (see link/board_session.py).
 """
 from __future__ import annotations
 
-import math
 import select
 import sys
 import threading
@@ -39,7 +41,6 @@ from rclpy.action import ActionServer, CancelResponse, GoalResponse
 from rclpy.callback_groups import MutuallyExclusiveCallbackGroup, ReentrantCallbackGroup
 from rclpy.node import Node
 from rclpy.task import Future
-from std_msgs.msg import String
 from std_srvs.srv import Trigger
 
 from plotter_interfaces.action import StreamCommands
@@ -63,7 +64,6 @@ STATE_NAMES = {BoardState.IDLE: "IDLE", BoardState.RUNNING: "RUNNING", BoardStat
                BoardState.ALARM: "ALARM", BoardState.DISCONNECTED: "DISCONNECTED"}
 MAX_COMMAND_LEN = 40            # the firmware accepts 48 characters with N and checksum
 MAX_JOB_COMMANDS = 1_000_000
-MAX_LEASE_S = 3600.0
 IO_SWITCH_INTERVAL = 0.0002     # s; see main()
 
 
@@ -80,12 +80,10 @@ def validate_commands(commands: List[str]) -> Optional[str]:
     return None
 
 
-def validate_goal(commands: List[str], lines: List[int], lease: float) -> Optional[str]:
+def validate_goal(commands: List[str], lines: List[int]) -> Optional[str]:
     why = validate_commands(commands)
     if why is None and lines and len(lines) != len(commands):
         why = "lines and commands differ in length"
-    if why is None and not (math.isfinite(lease) and 0.0 <= lease <= MAX_LEASE_S):
-        why = f"lease {lease} outside 0..{MAX_LEASE_S:g} s"
     return why
 
 
@@ -160,7 +158,6 @@ class SerialBridge(Node):
                               ("set_origin", self._srv_set_origin)):
             self.create_service(Trigger, name, handler, callback_group=group)
         self.create_service(JobStatus, "job_status", self._srv_job_status, callback_group=group)
-        self.create_subscription(String, "job_lease", self._on_lease, 10, callback_group=group)
         self._waker = Waker(self)
         # Goals are taken one at a time, in order (a mutually exclusive group):
         # the one the board works on, or a refusal.
@@ -270,7 +267,7 @@ class SerialBridge(Node):
 
     # --- action: stream a job ------------------------------------------------
     def _on_goal(self, goal) -> GoalResponse:
-        why = validate_goal(list(goal.commands), list(goal.lines), float(goal.lease))
+        why = validate_goal(list(goal.commands), list(goal.lines))
         if why is None and self._reserved:
             why = "another job is running (the board takes one job at a time)"
         if why:
@@ -278,11 +275,6 @@ class SerialBridge(Node):
             return GoalResponse.REJECT
         self._reserved = True
         return GoalResponse.ACCEPT
-
-    def _on_lease(self, msg: String) -> None:
-        running = self._running
-        if running is not None and msg.data == self._job_id(running.goal_handle):
-            self.session.renew(running.job)
 
     @staticmethod
     def _job_id(goal_handle) -> str:
@@ -301,7 +293,7 @@ class SerialBridge(Node):
             why = self.machine.refuses(req.machine)
             if why is None:
                 try:
-                    job = self.session.start_job(list(req.commands), lines, float(req.lease))
+                    job = self.session.start_job(list(req.commands), lines)
                 except RuntimeError as exc:       # the last job has not let go of the board yet
                     why = str(exc)
             if why is not None:
