@@ -45,6 +45,7 @@ TX_SIZE = 16          # firmware core/config.h: the transmit ring
 RX_EVENTS = b"\n\r?!~\x18\x1b"
 STALL = 0.003         # s: a pass of the loop this much later than it meant to wake is a stall
 PANEL_CATCH_UP_MS = 100   # panel ticks run at most this late: a stalled process does not replay seconds
+TRACE_FLUSH_S = 0.1      # s: longest a step waits in the trace's buffer while the board runs
 STOP_WAIT_S = 30.0       # s for the loop to stop before stop() gives up rather than close the core under it
 
 
@@ -78,6 +79,7 @@ class MockBoard:
             self._seq_file.flush()
         self._seq_seen = 0
         self._trace_dirty = False
+        self._trace_flushed_at = 0.0
         self.rx = PacedLine(config.baud)        # pty -> core, on the wire
         self.tx = PacedLine(config.baud)        # core -> pty: transmit ring and shift register
         self._tx_out = bytearray()              # sent by the UART, not yet written to the pty
@@ -306,13 +308,20 @@ class MockBoard:
             self._seq_seen = len(log)
         self._seq_file.flush()
 
+    def _flush_trace(self, now: float) -> None:
+        """Readers see a finished move before the board can report itself at
+        rest, and a running one (a hold among them: the step timer runs on)
+        at most TRACE_FLUSH_S late."""
+        if self._trace_dirty and (not self.core.timer_running() or now - self._trace_flushed_at >= TRACE_FLUSH_S):
+            self._trace.flush()
+            self._trace_dirty = False
+            self._trace_flushed_at = now
+
     def _run_steps(self, now: float) -> None:
         core = self.core
+        self._flush_trace(now)
         if not core.timer_running():
             self.board_time = now
-            if self._trace_dirty:
-                self._trace.flush()       # readers see a finished move at once
-                self._trace_dirty = False
             return
         # Catch up with every step interrupt due by now, on the board's own
         # clock, the serial line's events in between.
@@ -344,6 +353,7 @@ class MockBoard:
             if budget % 64 == 0:
                 self._main_loop(due)
                 serial_due = self._serial_due(due)
+        self._flush_trace(now)
 
     def _read_pty(self, now: float) -> None:
         if not self.connected:
