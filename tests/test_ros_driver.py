@@ -516,7 +516,7 @@ def test_a_port_whose_board_does_not_answer_is_reported_in_state_and_diagnostics
     try:
         wait_until(lambda: "[ERROR]" in bridge.output(), 20, "the bridge's error")
         line = next(x for x in bridge.output().splitlines() if x.startswith("[ERROR]"))
-        assert "no answer from the board in 5 s: nothing came back on the port at 115200 baud" in line, line
+        assert "no answer from the board in 5 s: nothing came back on the port at 9600 baud" in line, line
         wait_until(lambda: states and states[-1].state == BoardState.DISCONNECTED
                    and states[-1].last_error.startswith("no answer from the board"), 10,
                    "DISCONNECTED with the reason in /plotter/state")
@@ -572,7 +572,7 @@ def test_the_launch_file_starts_what_it_describes(tmp_path):
             client = _param_client(probe, n.executable)
             for key, value in n.params.items():
                 assert _get(client, [key]) == [value]
-        assert _get(_param_client(probe, "serial_bridge"), ["steps_per_mm", "baud"]) == [80.0, 115200]
+        assert _get(_param_client(probe, "serial_bridge"), ["steps_per_mm", "baud"]) == [80.0, 9600]
     finally:
         probe.close()
         for p in reversed(procs):

@@ -24,6 +24,7 @@ from typing import List, TextIO
 
 from plotter_bridge.gcode.dialect import DEFAULT_MARLIN_PEN_DOWN, DEFAULT_MARLIN_PEN_UP, DEFAULT_PEN_UP_Z
 from plotter_bridge.gcode.types import GCodeError
+from plotter_bridge.link.protocol import DEFAULT_BAUD
 from plotter_bridge.motion.kinematics import DEFAULT_Z_STEPS_PER_MM
 
 from .check import dialect_args, gcode_options
@@ -47,7 +48,8 @@ def connection_args(p: argparse.ArgumentParser) -> None:
                        help="serial port or pyserial URL of the board: run the plotter's nodes in this command")
     where.add_argument("--mock", action="store_true",
                        help="run on a simulated board (the firmware core) in this command")
-    p.add_argument("--baud", type=int, default=None, help="with --port: baud rate (default 115200)")
+    p.add_argument("--baud", type=int, default=None,
+                   help=f"with --port: baud rate (default {DEFAULT_BAUD}, the firmware's default image)")
     p.add_argument("--steps-per-mm", type=float, default=None, metavar="N",
                    help="with --port/--mock: motor steps per mm (default 80)")
     p.add_argument("--trace", metavar="OUT.csv", default="",
@@ -94,7 +96,8 @@ def _graph_options(args: argparse.Namespace):
         raise ValueError("--z-steps-per-mm must be a positive number")
     if args.z_range and not args.z_range[0] < args.z_range[1]:
         raise ValueError("--z-range: Z_MIN must be below Z_MAX")
-    return GraphOptions(gcode=gcode_options(args), port=args.port or "", mock=args.mock, baud=args.baud or 115200,
+    return GraphOptions(gcode=gcode_options(args), port=args.port or "", mock=args.mock,
+                        baud=args.baud or DEFAULT_BAUD,
                         steps_per_mm=args.steps_per_mm or 80.0, trace=args.trace,
                         namespace=args.namespace, faults=faults, seq_log=args.seq_log,
                         journal_dir=args.journal, machine=args.machine,

@@ -10,6 +10,9 @@ from dataclasses import dataclass
 from typing import Optional, Union
 
 SEQ_MOD = 1 << 16
+# The default image's UART (firmware/hal/mcs51/main.c, Timer 1): every host default is this
+# rate, so that a board flashed with `make flash` answers a bridge started without options.
+DEFAULT_BAUD = 9600
 BANNER_PREFIX = "PLOTTER 8051"
 
 # What the firmware accepts in a motion command (PROTOCOL.md, commands and settings).

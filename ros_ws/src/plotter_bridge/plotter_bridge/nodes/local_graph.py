@@ -20,6 +20,7 @@ from rclpy.parameter import Parameter
 from plotter_interfaces.action import RunProgram
 
 from plotter_bridge.gcode.dialect import GCodeOptions
+from plotter_bridge.link.protocol import DEFAULT_BAUD
 from plotter_bridge.nodes.action_client import ActionClient
 from plotter_bridge.motion.kinematics import DEFAULT_Z_STEPS_PER_MM, Machine
 from plotter_bridge.sim.faults import FaultSpec
@@ -37,7 +38,7 @@ ProgressCallback = Callable[[RunProgram.Feedback], None]
 class GraphOptions:
     port: str = ""                 # serial port or pyserial URL; "" with mock=True
     mock: bool = False
-    baud: int = 115200
+    baud: int = DEFAULT_BAUD
     steps_per_mm: float = 80.0
     trace: str = ""                # mock board step trace (CSV)
     namespace: str = "/plotter"

@@ -27,6 +27,7 @@ from rcl_interfaces.msg import FloatingPointRange, IntegerRange, ParameterDescri
 from rclpy.exceptions import ParameterException
 from rclpy.node import Node
 
+from plotter_bridge.link.protocol import DEFAULT_BAUD
 from plotter_bridge.motion.kinematics import DEFAULT_Z_STEPS_PER_MM, MACHINES, HangingGeometry, Machine
 
 Value = Union[bool, int, float, str, List[float]]
@@ -241,8 +242,9 @@ def machine_of(values: Mapping[str, Value]) -> Machine:
 
 
 # The serial line's rate, for the bridge and the mock board alike.
-BAUD = ParamSpec("baud", 115200, "baud rate of the serial line (115200 for firmware built with BAUD=115200, "
-                 "else 9600)", "baud", low=300, high=1_000_000, read_only=True)
+BAUD = ParamSpec("baud", DEFAULT_BAUD, f"baud rate of the serial line ({DEFAULT_BAUD}: the firmware's default "
+                 "image; 115200 for firmware built with BAUD=115200)", "baud", low=300, high=1_000_000,
+                 read_only=True)
 
 
 # --- the work area: the streamer checks programs, the shape server shapes ---------------

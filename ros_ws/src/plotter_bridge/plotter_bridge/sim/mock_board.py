@@ -37,6 +37,7 @@ from typing import IO, Optional
 
 from .faults import FaultCounts, FaultSpec, FaultyChannel
 from .firmware_core import CYCLES_PER_S, FirmwareCore, find_library
+from plotter_bridge.link.protocol import DEFAULT_BAUD
 from plotter_bridge.motion.kinematics import Machine
 from .uart import PacedLine
 
@@ -51,7 +52,7 @@ STOP_WAIT_S = 30.0       # s for the loop to stop before stop() gives up rather 
 
 @dataclass
 class MockBoardConfig:
-    baud: int = 115200
+    baud: int = DEFAULT_BAUD
     link: str = ""                 # also make a symlink to the pty here
     trace: str = ""                # CSV of every step
     speed: float = 1.0             # board time per wall time (tests may run faster)
