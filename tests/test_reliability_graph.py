@@ -249,6 +249,7 @@ def test_estop_mid_job_stops_and_nothing_queued_runs_after(graph):
     assert call(graph, "estop").success
     res = goal.result()
     assert res.status == GoalStatus.STATUS_ABORTED and "emergency stop" in res.result.message
+    assert f"plotter resume {res.result.job_id} finishes it" in res.result.message, "where and how to go on"
     wait_until(lambda: latest(graph).state == BoardState.ALARM, 10, "ALARM")
     n = wait_board_rest(graph)
     seqs = read_seq_log(graph.seq_log)

@@ -112,3 +112,15 @@ def test_garbage_through_the_whole_compile_only_raises_gcode_error(text, start):
         return
     for c in commands:
         assert len(c.text) <= 40 and all(abs(a) <= 32767 for a in c.args)
+
+
+def test_a_job_that_ended_part_way_says_where_and_how_to_finish_it():
+    pytest.importorskip("rclpy")
+    from plotter_bridge.nodes.gcode_streamer import stopped_message
+    record = JobRecord("ab" * 16, "p", ["L 1 1", "L 2 2", "L 3 3"], [3, 4, 7], (0, 0), False, 1000)
+    assert stopped_message("emergency stop", 2, record, "ab" * 16) == \
+        f"emergency stop; stopped after command 2 of 3 (line 4): plotter resume {'ab' * 16} finishes it"
+    assert stopped_message("board alarm", 0, record, "ab" * 16).startswith(
+        "board alarm; stopped after command 0 of 3: plotter resume")
+    reset = stopped_message("board reset during the job: the position is unknown", 1, record, "ab" * 16)
+    assert "(line 3)" in reset and "plotter resume" not in reset

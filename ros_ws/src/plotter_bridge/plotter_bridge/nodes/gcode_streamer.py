@@ -442,7 +442,7 @@ class GCodeStreamer(Node):
             return Outcome(True, "done", total_lines, job_id)
         if goal_handle is not None and goal_handle.is_cancel_requested:
             return Outcome(False, "canceled", lines_done, job_id, canceled=True)
-        return Outcome(False, res.message, lines_done, job_id)
+        return Outcome(False, stopped_message(res.message, completed, record, job_id), lines_done, job_id)
 
     def _timing(self, record: JobRecord) -> JobProgress:
         """The job's progress model: the pen's path and the plan's time per command."""
@@ -453,6 +453,17 @@ class GCodeStreamer(Node):
     def destroy_node(self) -> None:
         self._worker.shutdown()
         super().destroy_node()
+
+
+def stopped_message(why: str, completed: int, record: JobRecord, job_id: str) -> str:
+    """A job that ended part-way: why, where, and how to finish it (a
+    board reset loses the position, so no resume is offered then)."""
+    total = len(record.commands)
+    line = record.lines[completed - 1] if completed else 0
+    where = f"stopped after command {completed} of {total}" + (f" (line {line})" if line else "")
+    if "position is unknown" in why:
+        return f"{why}; {where}"
+    return f"{why}; {where}: plotter resume {job_id} finishes it"
 
 
 def _wait(future, timeout: float) -> bool:
