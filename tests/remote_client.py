@@ -24,6 +24,7 @@ def main() -> int:
     ap.add_argument("--x", type=float, default=100.0)
     ap.add_argument("--y", type=float, default=100.0)
     ap.add_argument("--size", type=float, default=15.0)
+    ap.add_argument("--feed", type=float, default=0.0, help="mm/min (0: the shape server's default)")
     ap.add_argument("--timeout", type=float, default=90.0)
     args = ap.parse_args()
     rclpy.init()
@@ -51,7 +52,7 @@ def main() -> int:
                 not wait(draw.server_is_ready):
             return 1
         report["discovered"] = True
-        goal = DrawShape.Goal(shape=ShapeGoal(shape=args.shape, x=args.x, y=args.y, size=args.size))
+        goal = DrawShape.Goal(shape=ShapeGoal(shape=args.shape, x=args.x, y=args.y, size=args.size, feed=args.feed))
         sent = draw.send_goal_async(goal)
         if not wait(sent.done) or not sent.result().accepted:
             return 1

@@ -10,6 +10,7 @@
   cross that link (shared memory is switched off, discovery range SUBNET).
   Needs root and iproute2; skipped otherwise.
 """
+import contextlib
 import json
 import os
 import shutil
@@ -148,6 +149,18 @@ class Hosts:
         r = _run("ip", "-n", self.names[k], "-s", "-j", "link", "show", self.links[k])
         return int(json.loads(r.stdout)[0]["stats64"]["rx"]["bytes"])
 
+    def partition(self, seconds: float) -> None:
+        """The link down on both ends for `seconds`, then up again."""
+        for ns, link in zip(self.names, self.links):
+            _run("ip", "-n", ns, "link", "set", link, "down")
+        try:
+            time.sleep(seconds)
+        finally:
+            for ns, link in zip(self.names, self.links):
+                _run("ip", "-n", ns, "link", "set", link, "up")
+            for ns, link in zip(self.names, self.links):
+                _run("ip", "-n", ns, "route", "replace", "224.0.0.0/4", "dev", link)
+
     def down(self) -> None:
         for ns in self.created:
             _run("ip", "netns", "del", ns)
@@ -185,11 +198,15 @@ class HostProcess:
         return self.log.read()
 
 
-def test_bridge_on_one_host_shapes_and_streamer_on_another(tmp_path):
+@contextlib.contextmanager
+def two_hosts(tmp_path):
+    """The board side (mock board, serial_bridge) on one host, shape_server and
+    gcode_streamer on the other; yields the hosts and a function that starts
+    a further process on a host.  Every process is stopped at the end, and
+    must stop cleanly."""
     reason = _netns_unavailable()
     if reason:
         pytest.skip(reason)
-    from plotter_shapes.geometry import build_shape
     hosts = Hosts()
     procs = []
     try:
@@ -202,7 +219,7 @@ def test_bridge_on_one_host_shapes_and_streamer_on_another(tmp_path):
                    PYTHONUNBUFFERED="1")
         env.pop("ROS_STATIC_PEERS", None)
         board_host, client_host = hosts.names
-        link, trace = tmp_path / "board.pty", tmp_path / "trace.csv"
+        hosts.link_path, hosts.trace = tmp_path / "board.pty", tmp_path / "trace.csv"
 
         def start(ns, name, *args):
             p = HostProcess(ns, [sys.executable, *args], env, tmp_path / f"{name}.log")
@@ -211,24 +228,13 @@ def test_bridge_on_one_host_shapes_and_streamer_on_another(tmp_path):
             return p
 
         start(board_host, "mock_board", "-m", "plotter_bridge.nodes.mock_board", "--ros-args",
-              "-p", f"link:={link}", "-p", f"trace:={trace}")
-        wait_until(link.exists, 20, "the mock board's pty")
+              "-p", f"link:={hosts.link_path}", "-p", f"trace:={hosts.trace}")
+        wait_until(hosts.link_path.exists, 20, "the mock board's pty")
         start(board_host, "serial_bridge", "-m", "plotter_bridge.nodes.serial_bridge", "--ros-args",
-              "-p", f"port:={link}")
+              "-p", f"port:={hosts.link_path}")
         start(client_host, "gcode_streamer", "-m", "plotter_bridge.nodes.gcode_streamer")
         start(client_host, "shape_server", "-m", "plotter_shapes.shape_server_node")
-        before = hosts.traffic(1)
-        client = start(client_host, "client", str(TESTS / "remote_client.py"), "--shape", "circle",
-                       "--x", "60", "--y", "60", "--size", "12")
-        client.proc.wait(120)
-        out = client.output()
-        report = json.loads([ln for ln in out.splitlines() if ln.startswith("{")][-1])
-        assert report["discovered"], "the client host never saw the bridge's state"
-        assert report["drawn"], out
-        figure = build_shape("circle", 60.0, 60.0, 12.0)
-        check_trace_follows(read_trace(trace), reference_path(figure, (0.0, 0.0)))
-        assert report["positions"] > 20 and abs(report["last"][0] - figure.end[0]) < 1e-6
-        assert hosts.traffic(1) - before > 10000, "little traffic crossed the veth link"
+        yield hosts, start
     except BaseException:
         for p in procs:
             print(f"--- {p.name}\n{p.output()}")
@@ -237,3 +243,42 @@ def test_bridge_on_one_host_shapes_and_streamer_on_another(tmp_path):
         codes = [p.stop() for p in reversed(procs)]
         hosts.down()
     assert all(c == 0 for c in codes), codes
+
+
+def _report(client) -> dict:
+    out = client.output()
+    report = json.loads([ln for ln in out.splitlines() if ln.startswith("{")][-1])
+    assert report["discovered"], "the client host never saw the bridge's state"
+    assert report["drawn"], out
+    return report
+
+
+def test_bridge_on_one_host_shapes_and_streamer_on_another(tmp_path):
+    from plotter_shapes.geometry import build_shape
+    with two_hosts(tmp_path) as (hosts, start):
+        before = hosts.traffic(1)
+        client = start(hosts.names[1], "client", str(TESTS / "remote_client.py"), "--shape", "circle",
+                       "--x", "60", "--y", "60", "--size", "12")
+        client.proc.wait(120)
+        report = _report(client)
+        figure = build_shape("circle", 60.0, 60.0, 12.0)
+        check_trace_follows(read_trace(hosts.trace), reference_path(figure, (0.0, 0.0)))
+        assert report["positions"] > 20 and abs(report["last"][0] - figure.end[0]) < 1e-6
+        assert hosts.traffic(1) - before > 10000, "little traffic crossed the veth link"
+
+
+def test_a_network_partition_of_10_s_mid_job_and_the_drawing_completes(tmp_path):
+    """The link between the hosts goes down for 10 s while the board draws:
+    the bridge draws on, and the client hears that the job is done once the
+    link is back."""
+    from plotter_shapes.geometry import build_shape
+    with two_hosts(tmp_path) as (hosts, start):
+        client = start(hosts.names[1], "client", str(TESTS / "remote_client.py"), "--shape", "circle",
+                       "--x", "60", "--y", "60", "--size", "30", "--feed", "300", "--timeout", "150")
+        wait_until(lambda: hosts.trace.exists() and len(read_trace(hosts.trace)) > 9000, 90, "the circle begun")
+        hosts.partition(10.0)
+        client.proc.wait(150)
+        report = _report(client)
+        figure = build_shape("circle", 60.0, 60.0, 30.0)
+        check_trace_follows(read_trace(hosts.trace), reference_path(figure, (0.0, 0.0)))
+        assert abs(report["last"][0] - figure.end[0]) < 1e-6
