@@ -6,6 +6,12 @@ processes (as `ros2 run` would), publishes one ShapeGoal per figure on
 /plotter/shape (as `ros2 topic pub --once` would), waits for the board to
 finish each, prints live positions from /plotter/position, and writes a
 picture of what the board drew (docs/demo.svg and docs/demo.png by default).
+
+Then it holds each figure's slice of the board's step trace against the
+steps the firmware core takes for that figure's program, compiled as the
+streamer compiles it (plotter_bridge.sim.expected), and exits 1 naming every
+figure not drawn whole, or refused on /plotter/shape_error or
+/plotter/program_error.
 """
 from __future__ import annotations
 
@@ -16,21 +22,79 @@ import sys
 import tempfile
 import time
 from pathlib import Path
+from typing import Dict, List, Mapping, Sequence, Tuple
 
 import rclpy
+import yaml
 from geometry_msgs.msg import PointStamped
 from rclpy.context import Context
 from rclpy.executors import SingleThreadedExecutor
 from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
+from std_msgs.msg import String
+
+from plotter_bridge.cli.picture import figure_polylines, runs_near_path, write_picture
+from plotter_bridge.gcode.types import GCodeError
+from plotter_bridge.motion.compiler import StreamerConfig
+from plotter_bridge.nodes import gcode_streamer
+from plotter_bridge.nodes.spinning import SpinThread
+from plotter_bridge.sim.expected import drawn_whole, program_steps
+from plotter_interfaces.msg import BoardState, ShapeGoal
+from plotter_shapes import shape_server_node
+from plotter_shapes.geometry import SEED_FIGURES, ShapeError, build_shape, goal_program
 
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent / "tests"))   # the node graph as processes
-from node_processes import PlotterGraph, read_trace, wait_until  # noqa: E402
-from plotter_bridge.cli.picture import figure_polylines, runs_near_path, write_picture
-from plotter_bridge.nodes.spinning import SpinThread
-from plotter_interfaces.msg import BoardState, ShapeGoal
-from plotter_shapes.geometry import SEED_FIGURES, build_shape
+from node_processes import PlotterGraph, params_file, read_trace, wait_until  # noqa: E402
 
 STEPS_PER_MM = 80.0
+ERROR_TOPICS = ("shape_error", "program_error")
+Point = Tuple[int, int]
+
+
+def node_values(specs: Sequence, params: str) -> Dict[str, object]:
+    """A node's parameter values as the graph starts it: its defaults, and
+    over them the params file's section for every node."""
+    with open(params) as f:
+        section = yaml.safe_load(f)["/**"]["ros__parameters"]
+    return {**{spec.name: spec.default for spec in specs}, **section}
+
+
+def figure_program(fig: Mapping, shapes: Mapping[str, object]) -> str:
+    """The G-code shape_server publishes for one of SEED_FIGURES as a ShapeGoal."""
+    _, lines = goal_program(fig["shape"], fig["x"], fig["y"], fig["size"], fig.get("clockwise", False),
+                            fig.get("reverse", False), default_feed=float(shapes["default_feed"]),
+                            default_size=float(shapes["default_size"]),
+                            default_centre=(float(shapes["work_x"]), float(shapes["work_y"])))
+    return "\n".join(lines) + "\n"
+
+
+def trace_rows(path: Path) -> int:
+    return max(0, path.read_bytes().count(b"\n") - 1)     # less the header
+
+
+def settled_rows(path: Path, quiet: float = 0.5, timeout: float = 30.0) -> int:
+    """Steps in the trace once it has stopped growing: the mock board writes
+    it in blocks and flushes the last one only when it comes to rest."""
+    end = time.monotonic() + timeout
+    size, since = -1, time.monotonic()
+    while time.monotonic() < end:
+        now_size = path.stat().st_size
+        if now_size != size:
+            size, since = now_size, time.monotonic()
+        elif time.monotonic() - since >= quiet:
+            return trace_rows(path)
+        time.sleep(0.05)
+    raise TimeoutError(f"the step trace {path} still grows after {timeout:g} s")
+
+
+def figure_problems(text: str, drawn: Sequence[Point], start: Point, config: StreamerConfig) -> List[str]:
+    """Why a figure's slice of the trace is not its program drawn whole from
+    `start` (steps), in words; none when it is."""
+    try:
+        expected = program_steps(text, config, start)
+    except GCodeError as exc:
+        return [f"its program is refused: {exc}"]
+    why = drawn_whole(drawn, expected, start, config.steps_per_mm)
+    return [f"not drawn whole: {why}"] if why else []
 
 
 def main() -> int:
@@ -50,6 +114,7 @@ def main() -> int:
     executor = SingleThreadedExecutor(context=context)
     executor.add_node(node)
     states = []
+    errors: List[Tuple[float, str]] = []     # (when, "/plotter/topic: message")
     last_print = [0.0]
 
     def on_position(msg: PointStamped) -> None:
@@ -62,18 +127,28 @@ def main() -> int:
                          durability=DurabilityPolicy.TRANSIENT_LOCAL)
     node.create_subscription(PointStamped, "position", on_position, 10)
     node.create_subscription(BoardState, "state", lambda m: states.append((time.monotonic(), m)), latched)
+
+    def on_error(topic: str, msg: String) -> None:
+        errors.append((time.monotonic(), f"/plotter/{topic}: {msg.data}"))
+        print(f"  /plotter/{topic}  {msg.data}", flush=True)
+    for topic in ERROR_TOPICS:
+        node.create_subscription(String, topic, lambda m, topic=topic: on_error(topic, m), 10)
     pub = node.create_publisher(ShapeGoal, "shape", 10)
     spin = SpinThread(executor)
     failed = False
+    starts: List[float] = []        # when each figure was published
+    rows: List[int] = []            # steps in the trace before each figure, and after the last
     try:
         wait_until(lambda: any(m.state == BoardState.IDLE for _, m in states), 60, "the board")
         wait_until(lambda: pub.get_subscription_count() > 0, 30, "shape_server")
         # Programs are published once: the streamer must already be listening.
         wait_until(lambda: node.count_subscribers("program") > 0, 30, "gcode_streamer")
+        rows.append(settled_rows(graph.trace))
         for fig in SEED_FIGURES:
             label = fig["shape"] + (" reversed" if fig.get("reverse") else "")
             print(f"drawing {label} at ({fig['x']:g}, {fig['y']:g}) mm", flush=True)
             t0 = time.monotonic()
+            starts.append(t0)
             pub.publish(ShapeGoal(**fig))
 
             def finished() -> bool:
@@ -81,10 +156,18 @@ def main() -> int:
                 run = [k for k, m in enumerate(after) if m.state == BoardState.RUNNING]
                 return bool(run) and any(m.state == BoardState.IDLE and m.queue_free == m.queue_size
                                          for m in after[run[0]:])
-            wait_until(finished, 300, f"the {label}")
+
+            def refused() -> bool:
+                # A refused figure never runs: its error ends the wait, once
+                # whatever did run of it is over.
+                last = states[-1][1]
+                return (any(t >= t0 for t, _ in errors) and last.state == BoardState.IDLE
+                        and last.queue_free == last.queue_size)
+            wait_until(lambda: finished() or refused(), 300, f"the {label}")
             if states[-1][1].last_error:
                 print(f"  board reports: {states[-1][1].last_error}", flush=True)
                 failed = True
+            rows.append(settled_rows(graph.trace))
     finally:
         spin.stop()
         node.destroy_node()
@@ -92,6 +175,7 @@ def main() -> int:
         codes = graph.close()
 
     trace = read_trace(graph.trace)
+    verdicts = check_figures([(x, y) for _, x, y in trace], rows, starts, errors)
     drawn = [(x / STEPS_PER_MM, y / STEPS_PER_MM) for _, x, y in trace]
     programmed = []
     for fig in SEED_FIGURES:
@@ -103,11 +187,42 @@ def main() -> int:
         write_picture(path, runs, programmed, title="seed figures on the mock board")
     if args.trace:
         Path(args.trace).write_bytes(graph.trace.read_bytes())
-    print(f"{len(trace)} steps in {trace[-1][0]:.1f} s of board time; pictures: {' '.join(pictures)}")
+    print(f"{len(trace)} steps in {trace[-1][0] if trace else 0.0:.1f} s of board time; "
+          f"pictures: {' '.join(pictures)}")
+    for label, problems, steps in verdicts:
+        for line in problems or [f"drawn whole, {steps} steps"]:
+            print(f"{label}: {line}", flush=True)
+    bad = [label for label, problems, _ in verdicts if problems]
+    if bad:
+        print(f"problems: not drawn whole: {', '.join(bad)}", file=sys.stderr)
     if failed or any(codes):
         print(f"problems: node exit codes {codes}", file=sys.stderr)
-        return 1
-    return 0
+    return 1 if bad or failed or any(codes) else 0
+
+
+def check_figures(trace: Sequence[Point], rows: Sequence[int], starts: Sequence[float],
+                  errors: Sequence[Tuple[float, str]]) -> List[Tuple[str, List[str], int]]:
+    """(label, problems, steps drawn) of each figure published: its slice of
+    the trace held against its program, and the errors published while it
+    was drawn."""
+    params = params_file()
+    config = gcode_streamer.streamer_config(node_values(gcode_streamer.SPECS, params))
+    shapes = node_values(shape_server_node.SPECS, params)
+    # The last figure's slice runs to the trace's end: a step after it is one too many.
+    bounds = list(rows[:len(starts)]) + [len(trace)]
+    verdicts = []
+    for k, (fig, t0) in enumerate(zip(SEED_FIGURES, starts)):
+        label = fig["shape"] + (" reversed" if fig.get("reverse") else "")
+        t1 = starts[k + 1] if k + 1 < len(starts) else float("inf")
+        start = trace[bounds[k] - 1] if bounds[k] > 0 else (0, 0)     # the board powers on at 0
+        drawn = trace[bounds[k]:bounds[k + 1]]
+        try:
+            problems = figure_problems(figure_program(fig, shapes), drawn, start, config)
+        except ShapeError as exc:
+            problems = [f"cannot be built: {exc}"]
+        problems += [text for t, text in errors if t0 <= t < t1]
+        verdicts.append((label, problems, len(drawn)))
+    return verdicts
 
 
 if __name__ == "__main__":
