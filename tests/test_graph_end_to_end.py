@@ -24,13 +24,17 @@ REPO = Path(__file__).resolve().parent.parent
 @contextmanager
 def watched_graph(workdir):
     """The graph, with a probe that records /plotter/position and
-    /plotter/state and can publish shape goals; the nodes must stop cleanly."""
+    /plotter/state and can publish shape goals; the nodes must stop cleanly.
+    Its link runs at 115200 baud (firmware built with BAUD=115200): the
+    position rate checked below is that link's; the default 9600 carries a
+    twelfth of its bytes, and so of its status reports."""
     from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
     from geometry_msgs.msg import PointStamped
     from plotter_interfaces.msg import BoardState, ShapeGoal
 
     domain = new_domain()
-    g = PlotterGraph(domain, workdir)
+    fast = ("-p", "baud:=115200")
+    g = PlotterGraph(domain, workdir, bridge_args=fast, board_args=fast)
     probe = Probe(domain)
     g.probe = probe
     g.positions, g.states = [], []

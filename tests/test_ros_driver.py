@@ -124,7 +124,7 @@ def test_set_parameters_is_applied_or_refused_with_a_reason(lone_nodes):
     procs, probe = lone_nodes
     streamer = _param_client(probe, "gcode_streamer")
     refusals = [("x_max", -5.0, "x_max"), ("x_max", "wide", "x_max"), ("acceleration", math.nan, "acceleration"),
-                ("acceleration", 0.0, "acceleration"), ("x_min", 300.0, "x_min"), ("bridge_timeout", 5.0, "bridge_timeout"),
+                ("acceleration", 0.0, "acceleration"), ("x_min", 300.0, "x_min"), ("bridge_timeout", 0.5, "bridge_timeout"),
                 ("steps_per_mm", 0.0, "read-only"), ("steps_per_mm", 90.0, "read-only"),
                 ("junction_deviation", -0.1, "junction_deviation"), ("lookahead", 3, "lookahead")]
     for name, value, word in refusals:
@@ -587,7 +587,7 @@ def test_a_job_whose_bridge_dies_ends_with_the_reason_and_the_streamer_rests(tmp
     from action_msgs.msg import GoalStatus
     from plotter_interfaces.action import RunProgram
     domain = new_domain()
-    g = PlotterGraph(domain, tmp_path)
+    g = PlotterGraph(domain, tmp_path, streamer_args=("-p", "bridge_timeout:=5.0"))
     probe = Probe(domain)
     try:
         client = probe.action_client(RunProgram, "run_program")
@@ -599,7 +599,8 @@ def test_a_job_whose_bridge_dies_ends_with_the_reason_and_the_streamer_rests(tmp
         g.bridge.proc.kill()
         res = _wait(handle.get_result_async(), 60, "the job's end")
         assert res.status == GoalStatus.STATUS_ABORTED
-        assert "serial bridge went away" in res.result.message and "plotter resume" in res.result.message
+        assert "serial bridge could not be reached for 5 s" in res.result.message, res.result.message
+        assert "plotter resume" in res.result.message
 
         def cpu() -> float:
             fields = Path(f"/proc/{g.streamer.proc.pid}/stat").read_text().rsplit(")", 1)[1].split()

@@ -131,7 +131,7 @@ SPECS = (
     ParamSpec("journal_dir", "", "directory of the job journal ('' = $ROS_HOME/plotter_journal)", read_only=True),
     ParamSpec("bridge_timeout", 60.0, "how long a running job waits for a serial bridge that cannot be reached "
                                       "before it is reported interrupted (the bridge goes on drawing it)", "s",
-              low=30.0, high=3600.0),
+              low=1.0, high=3600.0),
     ParamSpec("queue_limit", 16, "jobs that may wait for their turn; more are refused", "jobs",
               low=1, high=1000, read_only=True),
 )
