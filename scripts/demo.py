@@ -22,10 +22,9 @@ import sys
 import tempfile
 import time
 from pathlib import Path
-from typing import Dict, List, Mapping, Sequence, Tuple
+from typing import List, Sequence, Tuple
 
 import rclpy
-import yaml
 from geometry_msgs.msg import PointStamped
 from rclpy.context import Context
 from rclpy.executors import SingleThreadedExecutor
@@ -33,68 +32,17 @@ from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
 from std_msgs.msg import String
 
 from plotter_bridge.cli.picture import figure_polylines, runs_near_path, write_picture
-from plotter_bridge.gcode.types import GCodeError
-from plotter_bridge.motion.compiler import StreamerConfig
-from plotter_bridge.nodes import gcode_streamer
 from plotter_bridge.nodes.spinning import SpinThread
-from plotter_bridge.sim.expected import drawn_whole, program_steps
 from plotter_interfaces.msg import BoardState, ShapeGoal
-from plotter_shapes import shape_server_node
-from plotter_shapes.geometry import SEED_FIGURES, ShapeError, build_shape, goal_program
+from plotter_shapes.geometry import SEED_FIGURES, ShapeError, build_shape
 
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent / "tests"))   # the node graph as processes
-from node_processes import PlotterGraph, params_file, read_trace, wait_until  # noqa: E402
+from node_processes import PlotterGraph, read_trace, wait_until  # noqa: E402
+from drawing_check import figure_problems, figure_program, graph_configs, settled_rows  # noqa: E402
 
 STEPS_PER_MM = 80.0
 ERROR_TOPICS = ("shape_error", "program_error")
 Point = Tuple[int, int]
-
-
-def node_values(specs: Sequence, params: str) -> Dict[str, object]:
-    """A node's parameter values as the graph starts it: its defaults, and
-    over them the params file's section for every node."""
-    with open(params) as f:
-        section = yaml.safe_load(f)["/**"]["ros__parameters"]
-    return {**{spec.name: spec.default for spec in specs}, **section}
-
-
-def figure_program(fig: Mapping, shapes: Mapping[str, object]) -> str:
-    """The G-code shape_server publishes for one of SEED_FIGURES as a ShapeGoal."""
-    _, lines = goal_program(fig["shape"], fig["x"], fig["y"], fig["size"], fig.get("clockwise", False),
-                            fig.get("reverse", False), default_feed=float(shapes["default_feed"]),
-                            default_size=float(shapes["default_size"]),
-                            default_centre=(float(shapes["work_x"]), float(shapes["work_y"])))
-    return "\n".join(lines) + "\n"
-
-
-def trace_rows(path: Path) -> int:
-    return max(0, path.read_bytes().count(b"\n") - 1)     # less the header
-
-
-def settled_rows(path: Path, quiet: float = 0.5, timeout: float = 30.0) -> int:
-    """Steps in the trace once it has stopped growing: the mock board writes
-    it in blocks and flushes the last one only when it comes to rest."""
-    end = time.monotonic() + timeout
-    size, since = -1, time.monotonic()
-    while time.monotonic() < end:
-        now_size = path.stat().st_size
-        if now_size != size:
-            size, since = now_size, time.monotonic()
-        elif time.monotonic() - since >= quiet:
-            return trace_rows(path)
-        time.sleep(0.05)
-    raise TimeoutError(f"the step trace {path} still grows after {timeout:g} s")
-
-
-def figure_problems(text: str, drawn: Sequence[Point], start: Point, config: StreamerConfig) -> List[str]:
-    """Why a figure's slice of the trace is not its program drawn whole from
-    `start` (steps), in words; none when it is."""
-    try:
-        expected = program_steps(text, config, start)
-    except GCodeError as exc:
-        return [f"its program is refused: {exc}"]
-    why = drawn_whole(drawn, expected, start, config.steps_per_mm)
-    return [f"not drawn whole: {why}"] if why else []
 
 
 def main() -> int:
@@ -205,9 +153,7 @@ def check_figures(trace: Sequence[Point], rows: Sequence[int], starts: Sequence[
     """(label, problems, steps drawn) of each figure published: its slice of
     the trace held against its program, and the errors published while it
     was drawn."""
-    params = params_file()
-    config = gcode_streamer.streamer_config(node_values(gcode_streamer.SPECS, params))
-    shapes = node_values(shape_server_node.SPECS, params)
+    config, shapes = graph_configs()
     # The last figure's slice runs to the trace's end: a step after it is one too many.
     bounds = list(rows[:len(starts)]) + [len(trace)]
     verdicts = []
