@@ -53,8 +53,8 @@ from plotter_interfaces.action import DrawShape, RunProgram
 from plotter_interfaces.msg import BoardState, ShapeGoal
 
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent / "tests"))   # the node graph as processes
-from node_processes import PlotterGraph, new_domain, read_trace, wait_until  # noqa: E402
-from drawing_check import figure_program, graph_configs, settled_rows  # noqa: E402
+from node_processes import PlotterGraph, new_domain, wait_until  # noqa: E402
+from drawing_check import figure_program, graph_configs  # noqa: E402
 
 KINDS = ("program goal", "program topic", "shape goal", "shape topic", "cancel", "hold")
 WEIGHTS = (35, 15, 20, 10, 8, 12)
@@ -95,6 +95,46 @@ class Probe:
     def errors_since(self, t0: float) -> List[str]:
         with self.lock:
             return [text for t, text in self.errors if t >= t0]
+
+
+class TraceTail:
+    """The steps the mock board adds to its trace, read from where the last
+    read ended: over a soak the trace grows to millions of rows."""
+
+    def __init__(self, path: Path) -> None:
+        self.path = path
+        self.offset = len(path.read_bytes().split(b"\n", 1)[0]) + 1     # past the header
+        self.last: Tuple[int, int] = (0, 0)                             # the board powers on at 0
+
+    def settled_size(self, quiet: float = 0.5, timeout: float = 30.0) -> int:
+        """The file's size once it has not grown for `quiet` seconds (the
+        mock board flushes its trace every 0.1 s while it runs)."""
+        end = time.monotonic() + timeout
+        size, since = -1, time.monotonic()
+        while time.monotonic() < end:
+            now_size = self.path.stat().st_size
+            if now_size != size:
+                size, since = now_size, time.monotonic()
+            elif time.monotonic() - since >= quiet:
+                return size
+            time.sleep(0.05)
+        raise TimeoutError(f"the step trace {self.path} still grows after {timeout:g} s")
+
+    def take(self) -> List[Tuple[int, int]]:
+        """The steps since the last take, once the trace has settled."""
+        self.settled_size()
+        with open(self.path, "rb") as f:
+            f.seek(self.offset)
+            data = f.read()
+        data = data[:data.rfind(b"\n") + 1]
+        self.offset += len(data)
+        steps = []
+        for row in data.decode().splitlines():
+            _, x, y = row.split(",")[:3]
+            steps.append((int(x), int(y)))
+        if steps:
+            self.last = steps[-1]
+        return steps
 
 
 def random_program(rng: random.Random, name: str) -> str:
@@ -157,6 +197,7 @@ class Soak:
     def __init__(self, graph: PlotterGraph, context: Context) -> None:
         node = rclpy.create_node("soak", namespace="/plotter", context=context)
         self.graph = graph
+        self.tail = TraceTail(graph.trace)
         self.probe = Probe(node)
         latched = QoSProfile(depth=1, reliability=ReliabilityPolicy.RELIABLE,
                              durability=DurabilityPolicy.TRANSIENT_LOCAL)
@@ -235,12 +276,12 @@ class Soak:
             job.problem = f"hold refused: {held.message}"
             return
         time.sleep(0.5)                                    # the hold brakes along the ramp
-        before = settled_rows(self.graph.trace, quiet=0.3)
+        before = self.tail.settled_size(quiet=0.3)
         time.sleep(seconds)
-        after = settled_rows(self.graph.trace, quiet=0.3)
+        after = self.tail.settled_size(quiet=0.3)
         resumed = _call(self.resume)
         if after != before:
-            job.problem = f"moved {after - before} steps while held"
+            job.problem = f"the trace grew by {after - before} bytes while held"
         if not resumed.success:
             job.problem = f"resume refused: {resumed.message}"
 
@@ -324,13 +365,11 @@ def main() -> int:
         soak.ready()
         for job in jobs:
             wait_until(soak.at_rest, 60, "the board at rest")
-            before = settled_rows(graph.trace)
-            trace = read_trace(graph.trace)
-            start = (trace[before - 1][1], trace[before - 1][2]) if before else (0, 0)
+            soak.tail.take()
+            start = soak.tail.last
             soak.run(job, rng)
             wait_until(soak.at_rest, 60, "the board at rest after the job")
-            rows = settled_rows(graph.trace)
-            drawn = [(x, y) for _, x, y in read_trace(graph.trace)[before:rows]]
+            drawn = soak.tail.take()
             try:
                 expected = program_steps(job.program, config, start)
             except GCodeError as exc:
