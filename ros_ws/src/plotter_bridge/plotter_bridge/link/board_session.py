@@ -367,6 +367,12 @@ class BoardSession:
                          started, max(started - 1, 0))
         self.link.discard()
 
+    def wait_connected(self, timeout: float) -> bool:
+        """Until the board has answered with a status report (CONNECTED), at
+        most `timeout` seconds; whether it has."""
+        with self._cond:
+            return self._cond.wait_for(lambda: self.connection == CONNECTED, timeout)
+
     # --- jobs ---------------------------------------------------------------------
     def start_job(self, commands: List[str], lines: List[int]) -> Job:
         """Queue a job; its `result` is set when it ends (see wait_job)."""

@@ -32,6 +32,11 @@ from .spinning import SpinThread
 from .teardown import teardown_watchdog
 
 ProgressCallback = Callable[[RunProgram.Feedback], None]
+# s a job waits for the mock board's first status report before it goes to the streamer
+# (which waits only 5 s for a connected board): the simulated board is a thread of this
+# process, and a loaded machine can leave it unscheduled for seconds while the bridge's
+# serial thread runs on (3.4 s seen beside CPU-bound processes).
+MOCK_ANSWER_S = 30.0
 
 
 @dataclass
@@ -120,6 +125,9 @@ class LocalGraph:
                     timeout: float = 24 * 3600.0, resume: str = "") -> ProgramResult:
         if not self._client.wait_for_server(timeout_sec=10.0):
             return ProgramResult(False, "gcode streamer not available", 0.0, 0.0)
+        if self.board is not None:
+            # Not answered by then: the streamer refuses the job, saying why.
+            self.bridge.session.wait_connected(MOCK_ANSWER_S)
         goal = RunProgram.Goal()
         goal.program, goal.name, goal.resume = text, name, resume
         done = threading.Event()
