@@ -22,8 +22,10 @@ directory under the ROS home, before anything starts and again under load, and s
 process's CPU time and run-queue wait (/proc/<pid>/task/*/schedstat) over the measurement window.
 
     python benchmarks/host_latency.py --hogs 2 --seconds 40
+    python benchmarks/host_latency.py --sweep 0,1,2,4 --runs 3 --seconds 30
 
-Prints a markdown table to paste into docs/reliability.md.  A benchmark, not a test: it asserts
+Prints a markdown table to paste into docs/reliability.md (with --sweep, one row per number of hogs
+over all its runs).  A benchmark, not a test: it asserts
 nothing.  Every process it started is stopped at the end, also on Ctrl-C or an error.
 """
 from __future__ import annotations
@@ -118,6 +120,12 @@ def path_length(points: Sequence[Tuple[float, float]]) -> float:
 def missing(seqs: Sequence[int], sent: int) -> int:
     """Sequence numbers 0..sent-1 that never arrived."""
     return len(set(range(sent)) - set(seqs))
+
+
+def share(calls: Sequence["Call"], part: str) -> float:
+    """Per cent of the calls' time spent in `part` ('cpu', 'queued' or 'blocked')."""
+    wall = sum(c.wall for c in calls)
+    return 100.0 * sum(getattr(c, part) for c in calls) / wall if wall > 0 else math.nan
 
 
 def ms(seconds: float) -> str:
@@ -277,31 +285,61 @@ def ros_home() -> Path:
     return Path(os.environ.get("ROS_HOME") or Path.home() / ".ros")
 
 
-def time_journal(directory: Path, calls: int, limit_s: float = 60.0) -> List[float]:
-    """Seconds per Journal.update, each with new progress (an unchanged one writes nothing)."""
+@dataclass(frozen=True)
+class Call:
+    wall: float        # s the call took
+    cpu: float         # s of it on a CPU
+    queued: float      # s of it runnable but waiting for a CPU
+
+    @property
+    def blocked(self) -> float:
+        """Neither running nor runnable: in this single-threaded process, blocked in the kernel (in fsync,
+        on the disk and whatever the file system waits for)."""
+        return max(0.0, self.wall - self.cpu - self.queued)
+
+
+def thread_sched() -> Tuple[float, float]:
+    """(CPU s, run-queue wait s) of the calling thread so far, from its schedstat."""
+    fields = Path(f"/proc/self/task/{threading.get_native_id()}/schedstat").read_text().split()
+    return int(fields[0]) / 1e9, int(fields[1]) / 1e9
+
+
+def time_journal(directory: Path, calls: int, limit_s: float = 60.0) -> List[Call]:
+    """Each Journal.update, with new progress every time (an unchanged one writes nothing)."""
     from plotter_bridge.link.journal import RUNNING, Journal, Progress
     journal = Journal(directory)
     job_id = uuid.uuid4().hex
     out = []
     end = time.monotonic() + limit_s
     for k in range(calls):
-        t0 = time.perf_counter()
+        (c0, q0), t0 = thread_sched(), time.perf_counter()
         journal.update(job_id, Progress(k, RUNNING))
-        out.append(time.perf_counter() - t0)
+        t1, (c1, q1) = time.perf_counter(), thread_sched()
+        out.append(Call(t1 - t0, c1 - c0, q1 - q0))
         if time.monotonic() > end:
             break
     return out
 
 
-def journal_figures(calls: int) -> List[float]:
+def run_journal_probe(out: Path, calls: int) -> int:
     # Beside the streamer's own journal (~/.ros/plotter_journal): the same disk and file system.
     home = ros_home()
     home.mkdir(parents=True, exist_ok=True)
     directory = Path(tempfile.mkdtemp(prefix="host_latency_journal-", dir=home))
     try:
-        return time_journal(directory, calls)
+        out.write_text(json.dumps([[c.wall, c.cpu, c.queued] for c in time_journal(directory, calls)]))
     finally:
         shutil.rmtree(directory, ignore_errors=True)
+    return 0
+
+
+def journal_figures(calls: int, work: Path) -> List[Call]:
+    """Timed in a process of its own with one thread: no other thread holds its GIL, so the time a call
+    neither runs nor waits for a CPU is spent blocked in the kernel (fsync)."""
+    out = work / "journal.json"
+    subprocess.run([sys.executable, str(Path(__file__).resolve()), "--probe", "journal", "--out", str(out),
+                    "--journal-calls", str(calls)], check=True, timeout=120)
+    return [Call(*c) for c in json.loads(out.read_text())]
 
 
 # --- probe processes ---------------------------------------------------------------------
@@ -394,17 +432,24 @@ def run_receiver(domain: int, out: Path, threads: int) -> int:
 
 # --- the run -----------------------------------------------------------------------------
 
+@dataclass(frozen=True)
+class Row:
+    name: str
+    summary: Summary
+    period: float = 0.0        # nominal interval of a gap row: a threshold at or below it counts nothing useful
+
+
 @dataclass
 class Figures:
     command: str
     hogs: int
     seconds: float
     baud: int
-    rows: List[Tuple[str, Summary]] = field(default_factory=list)
+    rows: List[Row] = field(default_factory=list)
     pings_sent: int = 0
     pings_lost: int = 0
-    journal_idle: List[float] = field(default_factory=list)
-    journal_loaded: List[float] = field(default_factory=list)
+    journal_idle: List[Call] = field(default_factory=list)
+    journal_loaded: List[Call] = field(default_factory=list)
     load: Dict[str, Tuple[float, float]] = field(default_factory=dict)
     machine: float = math.nan    # CPU % of one core, every process on the machine
     pen_travel_mm: float = 0.0
@@ -456,15 +501,15 @@ def measure(args: argparse.Namespace, command: str) -> Figures:
     from plotter_interfaces.msg import BoardState
 
     fig = Figures(command, args.hogs, args.seconds, args.baud)
-    log(f"timing Journal.update x{args.journal_calls}, nothing else running")
-    fig.journal_idle = journal_figures(args.journal_calls)
-
     domain = new_domain()
     # Each thing started is stopped on the way out, in reverse order, even when stopping another fails.
     with contextlib.ExitStack() as stack:
         # Under the ROS home like the real journal: the streamer's fsyncs go to the same disk.
+        ros_home().mkdir(parents=True, exist_ok=True)
         work = Path(tempfile.mkdtemp(prefix="host_latency-", dir=ros_home()))
         stack.callback(shutil.rmtree, work, ignore_errors=True)
+        log(f"timing Journal.update x{args.journal_calls}, nothing else running")
+        fig.journal_idle = journal_figures(args.journal_calls, work)
         hogs = start_hogs(args.hogs)
         stack.callback(stop_hogs, hogs)
         log(f"{args.hogs} CPU hogs; starting the node graph (ROS domain {domain}) in {work}")
@@ -501,7 +546,7 @@ def measure(args: argparse.Namespace, command: str) -> Figures:
         stack.callback(stop_probe, sender)
         pids = {"mock_board": graph.board.proc.pid, "serial_bridge": graph.bridge.proc.pid,
                 "gcode_streamer": graph.streamer.proc.pid, "shape_server": graph.shapes.proc.pid,
-                "receiver": receiver.proc.pid, "sender": sender.proc.pid, "this process": os.getpid()}
+                "receiver": receiver.proc.pid, "this process": os.getpid()}   # not the sender: it has ended
         pids.update({f"hog {k + 1}": p.pid for k, p in enumerate(hogs)})
         log(f"measuring for {args.seconds:g} s")
         before, cpu_before = sample(pids), read_cpu_times()
@@ -513,7 +558,7 @@ def measure(args: argparse.Namespace, command: str) -> Figures:
         stop_probe(receiver)       # it writes what it received as it stops
 
         log(f"timing Journal.update x{args.journal_calls} under the same load")
-        fig.journal_loaded = journal_figures(args.journal_calls)
+        fig.journal_loaded = journal_figures(args.journal_calls, work)
 
         data = json.loads(recv_out.read_text())
         sender_data = json.loads(send_out.read_text())
@@ -528,13 +573,16 @@ def measure(args: argparse.Namespace, command: str) -> Figures:
         positions = [p for p in data["positions"] if p[0] >= start]
         leases = [p for p in data["leases"] if p[0] >= start]
         fig.rows = [
-            ("/plotter/position: bridge stamp to probe callback", summarize([r - s for r, s, _, _ in positions])),
-            ("ping String, probe to probe (every 0.5 s)", summarize([r - s for r, _, s in pings])),
-            ("/plotter/position: gap between arrivals (25 Hz)", summarize(gaps([r for r, _, _, _ in positions]))),
-            ("ping String: gap between arrivals (sent every 0.5 s)", summarize(gaps([r for r, _, _ in pings]))),
-            ("wake-up lateness of a 10 ms sleep (a thread in the sender probe)",
-             summarize(sender_data["wake_late"])),
-            ("/plotter/job_lease: gap between arrivals (renewed every 0.5 s)", summarize(gaps_by_key(leases))),
+            Row("/plotter/position: bridge stamp to probe callback", summarize([r - s for r, s, _, _ in positions])),
+            Row("ping String, probe to probe (every 0.5 s)", summarize([r - s for r, _, s in pings])),
+            Row("/plotter/position: gap between arrivals (25 Hz)", summarize(gaps([r for r, _, _, _ in positions])),
+                period=0.04),
+            Row("ping String: gap between arrivals (sent every 0.5 s)", summarize(gaps([r for r, _, _ in pings])),
+                period=PING_PERIOD),
+            Row("wake-up lateness of a 10 ms sleep (a thread in the sender probe)",
+                summarize(sender_data["wake_late"])),
+            Row("/plotter/job_lease: gap between arrivals (renewed every 0.5 s)", summarize(gaps_by_key(leases)),
+                period=PING_PERIOD),
         ]
         fig.pen_travel_mm = 1000.0 * path_length([(x, y) for _, _, x, y in positions])
         fig.pings_lost = missing([q for _, q, _ in data["pings"]], fig.pings_sent)
@@ -552,18 +600,25 @@ def render(fig: Figures) -> str:
     absent: List[str] = []
     out += [f"| message delivery | count | median ms | p99 ms | p99.9 ms | max ms | {heads} |",
             "|---|---|---|---|---|---|" + "---|" * len(THRESHOLDS)]
-    for name, s in fig.rows:
+    for row in fig.rows:
+        s = row.summary
         if s.count == 0:           # /plotter/job_lease with a build that no longer has the lease
-            absent.append(name.split(":")[0])
+            absent.append(row.name.split(":")[0])
             continue
-        over = " | ".join(str(n) for n in s.over)
-        out.append(f"| {name} | {s.count} | {ms(s.median)} | {ms(s.p99)} | {ms(s.p999)} | {ms(s.max)} | {over} |")
-    out += ["", "| Journal.update (write + fsync + rename) | calls | median ms | p99 ms | max ms |",
-            "|---|---|---|---|---|"]
-    for name, values in (("before the graph starts, no hogs", fig.journal_idle),
-                         (f"beside the graph, its job and {fig.hogs} hogs", fig.journal_loaded)):
-        s = summarize(values)
-        out.append(f"| {name} | {s.count} | {ms(s.median)} | {ms(s.p99)} | {ms(s.max)} |")
+        over = " | ".join(str(n) if t > row.period else "n/a" for n, t in zip(s.over, THRESHOLDS))
+        out.append(f"| {row.name} | {s.count} | {ms(s.median)} | {ms(s.p99)} | {ms(s.p999)} | {ms(s.max)} | {over} |")
+    out += ["", "| Journal.update (write + fsync + rename) | calls | median ms | p99 ms | max ms "
+                "| slowest call: on a CPU / waiting for one / blocked in the kernel, ms |", "|---|---|---|---|---|---|"]
+    for name, calls in (("before the graph starts, no hogs", fig.journal_idle),
+                        (f"beside the graph, its job and {fig.hogs} hogs", fig.journal_loaded)):
+        s = summarize([c.wall for c in calls])
+        slowest = max(calls, key=lambda c: c.wall)
+        out.append(f"| {name} | {s.count} | {ms(s.median)} | {ms(s.p99)} | {ms(s.max)} "
+                   f"| {ms(slowest.cpu)} / {ms(slowest.queued)} / {ms(slowest.blocked)} |")
+    loaded = fig.journal_loaded
+    out += ["", f"Of all Journal.update time beside the graph: {share(loaded, 'cpu'):.0f} % on a CPU, "
+                f"{share(loaded, 'queued'):.0f} % waiting for one, "
+                f"{share(loaded, 'blocked'):.0f} % blocked in the kernel (fsync)."]
     others = fig.machine - sum(c for c, _ in fig.load.values())
     out += ["", "CPU % of one core / run-queue wait ms per s, over the window: " +
             ", ".join(f"{n} {c:.0f} % / {w:.0f}" for n, (c, w) in fig.load.items()) +
@@ -574,6 +629,31 @@ def render(fig: Figures) -> str:
                f"{fig.pen_travel_mm:.0f} mm. Jobs: {jobs}."
                + (f" Job driver: {fig.job_error}." if fig.job_error else "")
                + (f" Nothing arrived on {', '.join(absent)}." if absent else ""))
+    return "\n".join(out)
+
+
+def render_sweep(command: str, runs: Dict[int, List[Figures]]) -> str:
+    """One row per number of hogs: the median run's median and the worst run's tail, so one bad run shows."""
+    def worst(figs: List[Figures], row: int, attr: str) -> float:
+        return max(getattr(f.rows[row].summary, attr) for f in figs)
+
+    def mid(figs: List[Figures], row: int) -> float:
+        return percentile(sorted(f.rows[row].summary.median for f in figs), 50)
+
+    first = next(iter(runs.values()))[0]
+    out = [f"`{command}` ({first.baud} baud; {os.cpu_count()} CPUs, {platform.machine()}, Python "
+           f"{platform.python_version()}; each run {first.seconds:g} s of pings)", "",
+           "| hogs | runs | position latency median / worst p99 / worst max, ms | ping latency worst max, ms "
+           "| position gap worst max, ms (25 Hz) | 10 ms sleep worst lateness, ms | pings lost "
+           "| Journal.update under load worst max, ms | machine CPU, % of one core |",
+           "|---|---|---|---|---|---|---|---|---|"]
+    for hogs, figs in runs.items():
+        journal = max(c.wall for f in figs for c in f.journal_loaded)
+        cpu = percentile(sorted(f.machine for f in figs), 50)
+        out.append(f"| {hogs} | {len(figs)} | {ms(mid(figs, 0))} / {ms(worst(figs, 0, 'p99'))} / "
+                   f"{ms(worst(figs, 0, 'max'))} | {ms(worst(figs, 1, 'max'))} | {ms(worst(figs, 2, 'max'))} "
+                   f"| {ms(worst(figs, 4, 'max'))} | {sum(f.pings_lost for f in figs)} of "
+                   f"{sum(f.pings_sent for f in figs)} | {ms(journal)} | {cpu:.0f} |")
     return "\n".join(out)
 
 
@@ -588,8 +668,10 @@ def main() -> int:
     ap.add_argument("--baud", type=int, default=115200,
                     help="serial line of the mock board and serial_bridge (default 115200: /plotter/position at its "
                          "25 Hz while drawing; at 9600, the link's default, status polls are held to ~1 Hz)")
+    ap.add_argument("--sweep", help="comma-separated numbers of hogs to measure in turn (overrides --hogs)")
+    ap.add_argument("--runs", type=int, default=1, help="runs per number of hogs with --sweep (default 1)")
     ap.add_argument("--raw", type=Path, help="also write the receiving probe's arrivals (JSON) here")
-    ap.add_argument("--probe", choices=("send", "recv"), help=argparse.SUPPRESS)
+    ap.add_argument("--probe", choices=("send", "recv", "journal"), help=argparse.SUPPRESS)
     ap.add_argument("--domain", type=int, help=argparse.SUPPRESS)
     ap.add_argument("--out", type=Path, help=argparse.SUPPRESS)
     args = ap.parse_args()
@@ -597,9 +679,30 @@ def main() -> int:
         return run_sender(args.domain, args.out, args.seconds)
     if args.probe == "recv":
         return run_receiver(args.domain, args.out, args.receiver_threads)
+    if args.probe == "journal":
+        return run_journal_probe(args.out, args.journal_calls)
     if args.hogs < 0 or args.seconds <= 0 or args.journal_calls <= 0:
         ap.error("--hogs must be >= 0, --seconds and --journal-calls > 0")
     command = "python benchmarks/host_latency.py " + shlex.join(sys.argv[1:])
+    if args.sweep:
+        try:
+            counts = [int(n) for n in args.sweep.split(",")]
+        except ValueError:
+            ap.error(f"--sweep: numbers of hogs separated by commas, not {args.sweep!r}")
+        if min(counts) < 0 or args.runs < 1:
+            ap.error("--sweep counts must be >= 0 and --runs >= 1")
+        runs: Dict[int, List[Figures]] = {}
+        try:
+            for hogs in counts:
+                for k in range(args.runs):
+                    log(f"sweep: {hogs} hogs, run {k + 1} of {args.runs}")
+                    one = argparse.Namespace(**{**vars(args), "hogs": hogs, "raw": None})
+                    runs.setdefault(hogs, []).append(measure(one, command))
+        except KeyboardInterrupt:
+            print("interrupted", file=sys.stderr)
+            return 130
+        print(render_sweep(command, runs))
+        return 0
     try:
         fig = measure(args, command)
     except KeyboardInterrupt:      # every process is stopped by now
