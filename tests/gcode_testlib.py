@@ -136,14 +136,15 @@ def expected_message(ngc_text: str) -> str:
 # ------------------------------------------------------- running the CLI
 
 def check_json(path: Path, *extra: str) -> List[dict]:
-    """``plotter check PATH --json`` parsed, run in-process; asserts exit code 0."""
+    """The moves of ``plotter check PATH --json``, run in-process; asserts exit code 0."""
     from plotter_bridge.cli import main as cli
 
     out, err = io.StringIO(), io.StringIO()
     with contextlib.redirect_stdout(out), contextlib.redirect_stderr(err):
         code = cli.main(["check", str(path), "--json", *extra])
     assert code == 0, f"plotter check rejected {path}: {err.getvalue()}"
-    return [json.loads(line) for line in out.getvalue().splitlines()]
+    records = [json.loads(line) for line in out.getvalue().splitlines()]
+    return [r for r in records if r["type"] not in ("note", "error")]
 
 
 # ------------------------------------------------------- paths as points
@@ -161,3 +162,58 @@ def move_points(m, spacing=0.004):
     sign = -1 if m.cw else 1
     return [(m.cx + r * math.cos(a0 + sign * sweep * k / n), m.cy + r * math.sin(a0 + sign * sweep * k / n))
             for k in range(n + 1)]
+
+
+# ------------------------------------------------------- distance to a path
+
+def _in_sweep(angle: float, a0: float, a1: float, cw: bool, full: bool) -> bool:
+    if full:
+        return True
+    tau = 2 * math.pi
+    if cw:
+        return (a0 - angle) % tau <= (a0 - a1) % tau
+    return (angle - a0) % tau <= (a1 - a0) % tau
+
+
+def distance_to_move(p, m) -> float:
+    """Distance (mm) from a point to a parsed move: its segment, or its arc."""
+    px, py = p
+    if m.kind != "arc":
+        dx, dy = m.x - m.sx, m.y - m.sy
+        length2 = dx * dx + dy * dy
+        t = 0.0 if length2 == 0 else max(0.0, min(1.0, ((px - m.sx) * dx + (py - m.sy) * dy) / length2))
+        return math.hypot(px - (m.sx + t * dx), py - (m.sy + t * dy))
+    r = math.hypot(m.sx - m.cx, m.sy - m.cy)
+    a0 = math.atan2(m.sy - m.cy, m.sx - m.cx)
+    a1 = math.atan2(m.y - m.cy, m.x - m.cx)
+    if _in_sweep(math.atan2(py - m.cy, px - m.cx), a0, a1, bool(m.cw), m.is_full_circle):
+        return abs(math.hypot(px - m.cx, py - m.cy) - r)
+    return min(math.hypot(px - m.sx, py - m.sy), math.hypot(px - m.x, py - m.y))
+
+
+class MoveIndex:
+    """The parsed moves of a program in a grid of `cell` mm, for the distance from a
+    point to the nearest of them; a point farther than `reach` from all of them is
+    reported as infinitely far."""
+
+    def __init__(self, moves, cell: float = 1.0, reach: float = 0.25) -> None:
+        from plotter_bridge.gcode.geometry import arc_extreme_points
+        self.cell, self.grid = cell, {}
+        for m in moves:
+            xs, ys = [m.sx, m.x], [m.sy, m.y]
+            if m.kind == "arc":
+                if m.is_full_circle:
+                    r = math.hypot(m.sx - m.cx, m.sy - m.cy)
+                    xs += [m.cx - r, m.cx + r]
+                    ys += [m.cy - r, m.cy + r]
+                else:
+                    for ex, ey in arc_extreme_points((m.sx, m.sy), (m.x, m.y), (m.cx, m.cy), bool(m.cw)):
+                        xs.append(ex)
+                        ys.append(ey)
+            for i in range(math.floor((min(xs) - reach) / cell), math.floor((max(xs) + reach) / cell) + 1):
+                for j in range(math.floor((min(ys) - reach) / cell), math.floor((max(ys) + reach) / cell) + 1):
+                    self.grid.setdefault((i, j), []).append(m)
+
+    def distance(self, p) -> float:
+        near = self.grid.get((math.floor(p[0] / self.cell), math.floor(p[1] / self.cell)), ())
+        return min((distance_to_move(p, m) for m in near), default=math.inf)

@@ -106,13 +106,12 @@ def cases() -> List[Case]:
         if drawing != "curves":   # svg-to-gcode 1.5.4 puts a relative s after an s at the wrong point
             out.append(Case(f"{drawing}.svg-to-gcode.gcode", drawing, "svg-to-gcode", "laser", "grbl",
                             SVG_TO_GCODE_TOLERANCE + 1e-5))
-    # vpype-gcode's own profiles: written for machines without a pen, or with homing.
+    # vpype-gcode's own profiles: written for machines without a pen, or with homing switches ($H).
+    # (Its "ninja" profile homes with G28 and lowers its pen by raising Z: tests/test_generator_corpus.py.)
     out += [Case("shapes.vpype-gcodemm.gcode", "shapes", "vpype-gcode", "gcodemm",
                  refused=(5, "no feed rate for G1")),
             Case("shapes.vpype-gcode.gcode", "shapes", "vpype-gcode", "gcode", "grbl",
                  refused=(5, "no feed rate for G1")),
-            Case("shapes.vpype-ninja.gcode", "shapes", "vpype-gcode", "ninja", "grbl",
-                 refused=(4, "G28 (go home) is refused")),
             Case("shapes.vpype-step_motor.gcode", "shapes", "vpype-gcode", "step_motor", "grbl",
                  refused=(1, "grbl's homing cycle $H is refused"))]
     return out

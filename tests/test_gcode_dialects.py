@@ -183,34 +183,34 @@ def test_notes_name_their_lines():
 
 # Bad input in each dialect: (dialect, program, line, words of the reason).
 REFUSED = [
-    ("linuxcnc", "G21\nM3 S1000\n", 2, "unsupported word letter 'S' (spindle speed or laser power: with --dialect grbl"),
-    ("linuxcnc", "M300 S30\n", 1, "unsupported word letter 'S'"),
-    ("linuxcnc", "G54\nG0 X1\n", 1, "unsupported G code G54"),
-    ("linuxcnc", "M8\nG0 X1\n", 1, "unsupported M code M8"),
-    ("linuxcnc", "M4\nG0 X1\n", 1, "unsupported M code M4"),
-    ("linuxcnc", "G0 X1\n$H\n", 2, "homing cycle $H is refused: the plotter has no homing cycle"),
+    ("linuxcnc", "F100\nG2 X2 I1 K0\n", 2, "unsupported word letter 'K' (K on an arc in the XY plane"),
+    ("linuxcnc", "M300 S30\n", 1, "unsupported M code M300: a machine's own command"),
+    ("linuxcnc", "G55\nG0 X1\n", 1, "G55 (work coordinate system 2) is refused: G54 is the only one"),
+    ("linuxcnc", "M62 P1\nG0 X1\n", 1, "unsupported M code M62"),
+    ("linuxcnc", "G1 X1 E2 F100\n", 1, "unsupported word letter 'E' (an extruder word"),
+    ("linuxcnc", "G0 X1\n$H\n", 2, "homing cycle $H is refused: the plotter has no homing switches"),
     ("grbl", "G21\n$H\nG0 X1\n", 2, "grbl's homing cycle $H is refused"),
-    ("grbl", "$X\nG0 X1\n", 1, "grbl system command '$X' is refused"),
+    ("grbl", "$J=G91 X10 F100\nG0 X1\n", 1, "grbl jog '$J=G91' is refused"),
     ("grbl", "  $32=1\nG0 X1\n", 1, "grbl system command '$32=1' is refused"),
-    ("grbl", "G0 X1\nG28\n", 2, "G28 (go home) is refused: the plotter has no homing cycle"),
-    ("grbl", "G0 X1\nG28 X0 Y0\n", 2, "G28 (go home) is refused"),
-    ("grbl", "G0 X1\nG30\n", 2, "G30 (go to the second home) is refused"),
+    ("grbl", "G0 X1\nG28.1\n", 2, "G28.1 (store the home position) is refused"),
+    ("grbl", "G0 X1\nG81 X1 Y1 Z-1 R1 F100\n", 2, "G81 is refused in the grbl dialect"),
+    ("grbl", "G0 X1\nG43\n", 2, "G43 is refused in the grbl dialect"),
     ("grbl", "G55\nG0 X1\n", 1, "G55 (work coordinate system 2) is refused: G54 is the only one"),
     ("grbl", "G59 G0 X1\n", 1, "G59 (work coordinate system 6) is refused"),
     ("grbl", "G53 G0 X1\n", 1, "G53 (machine coordinates) is refused"),
-    ("grbl", "G0 X1\nM3 S-5\n", 2, "negative S word (power) S-5"),
+    ("grbl", "G0 X1\nM3 S-5\n", 2, "negative S word (spindle speed or power) S-5"),
     ("grbl", "G0 X1\nM300 S30\n", 2, "unsupported M code M300"),
     ("grbl", "M17\nG0 X1\n", 1, "unsupported M code M17"),
     ("marlin", "M300 S40\nG0 X1\n", 1, "M300 S40: neither the pen-down angle 30 nor the pen-up angle 50"),
-    ("marlin", "G0 X1\nM300\n", 2, "M300 (pen servo) needs an S word"),
-    ("marlin", "G0 X1\nS30\n", 2, "S word without M300 (pen servo) or G4 (dwell)"),
-    ("marlin", "G0 X1\nM3 S1000\n", 2, "S word without M300"),
+    ("marlin", "G0 X1\nM280 P0\n", 2, "M280 (pen servo) needs an S word"),
+    ("marlin", "G0 X1\nM280 P0 S200\n", 2, "M280 S200: a servo angle is 0..180 degrees"),
+    ("marlin", "G0 X1\nG81 X1 Y1 Z-1 R1\n", 2, "G81 is refused in the marlin dialect"),
     ("marlin", "G0 X1\nG4\n", 2, "G4 dwell needs a P word (milliseconds)"),
     ("marlin", "G0 X1\nG4 P100 S1\n", 2, "G4 dwell with both P (milliseconds) and S (seconds)"),
     ("marlin", "G0 X1\nG4 P-100\n", 2, "G4 dwell with a negative time"),
-    ("marlin", "G0 X1\nG28\n", 2, "G28 (go home) is refused"),
-    ("marlin", "M8\nG0 X1\n", 1, "unsupported M code M8"),
-    ("marlin", "G54\nG0 X1\n", 1, "unsupported G code G54"),
+    ("marlin", "G0 X1\nG28.1\n", 2, "G28.1 (store the home position) is refused"),
+    ("marlin", "M62 P1\nG0 X1\n", 1, "unsupported M code M62"),
+    ("marlin", "G55\nG0 X1\n", 1, "G55 (work coordinate system 2) is refused"),
 ]
 
 
@@ -233,8 +233,9 @@ def test_refused_with_line_and_reason(dialect, program, line, reason, tmp_path):
 
 
 def test_the_default_dialect_is_linuxcnc(tmp_path):
+    """K on an XY arc: LinuxCNC refuses it, grbl ignores it."""
     path = tmp_path / "grbl.gcode"
-    path.write_text("G21\nM3 S1000\nG1 X10 F100\nM5\n")
+    path.write_text("G21 F100\nM3\nG2 X2 I1 K0\nM5\n")
     for extra, code in (([], 2), (["--dialect", "linuxcnc"], 2), (["--dialect", "grbl"], 0)):
         with contextlib.redirect_stdout(io.StringIO()), contextlib.redirect_stderr(io.StringIO()):
             assert cli.main(["check", str(path), *extra]) == code, extra

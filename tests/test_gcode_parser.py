@@ -589,7 +589,8 @@ def test_check_bad_program_exit_code_and_message(tmp_path):
     path.write_text("G21 F100\nG1 X1\nG1 X2 Q3\n")
     code, out, err = run_cli("check", str(path))
     assert code == 2 and out == ""
-    assert err == f"{path}:line 3: unsupported word letter 'Q'\n"
+    assert err == (f"{path}:line 3: unsupported word letter 'Q'\n"
+                   f"{path}: refused: 1 line the plotter cannot do; nothing moved\n")
 
 
 def test_check_limits_options(tmp_path):

@@ -2,10 +2,10 @@
 
 An uploaded file is G-code or an SVG drawing; either becomes a G-code
 program, checked the way the streamer checks it (the parser, then the work
-area from where the pen is), with the first error at its line and that
-line's text, and a preview of its pen-down path for the page.  Jog moves
-and shapes are checked the same way.  No ROS here: the node sends what
-passes to the streamer, which checks it once more against the board.
+area from where the pen is), with every refused line and its text, and
+a preview of its pen-down path for the page.  Jog moves and shapes are
+checked the same way.  No ROS here: the node sends what passes to the
+streamer, which checks it once more against the board.
 """
 from __future__ import annotations
 
@@ -16,9 +16,10 @@ from dataclasses import dataclass, field
 from typing import List, Optional, Tuple
 
 from plotter_bridge.cli.picture import program_polylines
-from plotter_bridge.gcode.limits import WorkArea, check_limits
-from plotter_bridge.gcode.parser import decode_program, parse, program_name
-from plotter_bridge.gcode.types import GCodeError
+from plotter_bridge.gcode.limits import WorkArea
+from plotter_bridge.gcode import parser
+from plotter_bridge.gcode.parser import decode_program, program_name
+from plotter_bridge.gcode.types import GCodeError, all_errors
 
 MAX_UPLOAD = 4 * 1024 * 1024      # bytes; the streamer's own limit is the same order
 JOG_STEPS = (0.1, 1.0, 10.0)      # mm, the page's jog buttons
@@ -65,13 +66,13 @@ def check_program(text: str, name: str, area: WorkArea, start: Point) -> Checked
     """Parse and check a G-code program for a pen now at `start` (mm)."""
     job = Checked(name, text)
     try:
-        items = parse(text, start=start)
-        check_limits(items, area)
+        parser.check_program(text, area, start=start)
         job.preview = program_polylines(text, start)
     except GCodeError as exc:
         lines = text.splitlines()
-        source = lines[exc.line - 1].strip() if 0 < exc.line <= len(lines) else ""
-        job.errors.append({"line": exc.line, "message": exc.message, "text": source[:120]})
+        for error in all_errors(exc):
+            source = lines[error.line - 1].strip() if 0 < error.line <= len(lines) else ""
+            job.errors.append({"line": error.line, "message": error.message, "text": source[:120]})
     return job
 
 

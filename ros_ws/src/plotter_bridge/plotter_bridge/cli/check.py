@@ -2,7 +2,10 @@
 and prints the moves it would make, like grbl's check mode (``--z-axis``:
 G-code Z as a third axis, see gcode/parser.py; ``--dialect``: see
 gcode/dialect.py).  Lines the dialect accepts without acting on them are
-listed on stderr as notes, ``FILE:line N: note: ...``.  No ROS.
+listed on stderr as notes, ``FILE:line N: note: ...``, and a refused program
+has every refused line listed there, ``FILE:line N: why``, in one run; with
+``--json`` each note and refusal is also a record on stdout, in line order
+with the moves.  No ROS.
 """
 from __future__ import annotations
 
@@ -10,16 +13,16 @@ import argparse
 import json
 import math
 import sys
-from typing import List, TextIO
+from typing import Dict, List, Sequence, TextIO
 
 from plotter_bridge.gcode.dialect import (DEFAULT_MARLIN_PEN_DOWN, DEFAULT_MARLIN_PEN_UP, DEFAULT_PEN_UP_Z,
                                           DIALECTS, LINUXCNC, GCodeOptions)
 from plotter_bridge.gcode.geometry import arc_length
-from plotter_bridge.gcode.limits import WorkArea, check_limits
-from plotter_bridge.gcode.parser import (DEFAULT_RAPID_RATE, GCodeError, Item, Move, decode_program,
-                                         parse_program)
+from plotter_bridge.gcode.limits import WorkArea
+from plotter_bridge.gcode.parser import (DEFAULT_RAPID_RATE, GCodeError, Item, Move, check_program,
+                                         decode_program)
 from plotter_bridge.gcode.steps import round_step, to_steps
-from plotter_bridge.gcode.types import Dwell, Pause, PenChange, ZMove
+from plotter_bridge.gcode.types import GCodeErrors, Dwell, Note, Pause, PenChange, ZMove, all_errors
 from plotter_bridge.motion.kinematics import DEFAULT_Z_STEPS_PER_MM
 
 from .command import EXIT_BAD_PROGRAM, EXIT_OK, Command
@@ -64,6 +67,8 @@ def _configure_check(p: argparse.ArgumentParser) -> None:
         p.add_argument("--" + name.replace("_", "-"), type=float,
                        default=getattr(defaults, name), metavar="MM",
                        help=f"work area limit (default {getattr(defaults, name):g})")
+    p.add_argument("--area", type=float, nargs=4, metavar=("X_MIN", "X_MAX", "Y_MIN", "Y_MAX"),
+                   help="work area in mm, as plotter stream takes it (instead of --x-min ... --y-max)")
     p.add_argument("--no-limits", action="store_true",
                    help="do not check the moves against the work area")
     dialect_args(p)
@@ -88,6 +93,13 @@ def z_record(move: ZMove) -> dict:
     """The JSON object of one Z move (``plotter check --z-axis --json``)."""
     return {"line": move.line, "type": "z", "z": _number(move.z), "feed": _number(move.feed),
             "rapid": move.rapid}
+
+
+def _message_record(entry) -> dict:
+    """The JSON object of a note or a refusal (``plotter check --json``)."""
+    if isinstance(entry, Note):
+        return {"line": entry.line, "type": "note", "message": entry.text}
+    return {"line": entry.line, "type": "error", "message": entry.message}
 
 
 def _length(move: Move) -> float:
@@ -129,7 +141,7 @@ def _print_table(items: List[Item], steps_per_mm: float, out: TextIO,
         elif isinstance(item, PenChange):
             out.write(f"{item.line:>5} {'':>5}  pen {item.pen}\n")
         elif isinstance(item, Pause):
-            out.write(f"{item.line:>5} {'':>5}  pause (M0)\n")
+            out.write(f"{item.line:>5} {'':>5}  pause (M0/M1)\n")
 
 
 def _summary(path: str, items: List[Item], notes: int = 0) -> str:
@@ -150,6 +162,33 @@ def _summary(path: str, items: List[Item], notes: int = 0) -> str:
             f"end points within X {min(xs):.2f}..{max(xs):.2f}, "
             f"Y {min(ys):.2f}..{max(ys):.2f} mm"
             + (f"; {notes} note{'s' if notes != 1 else ''}: lines accepted without effect" if notes else ""))
+
+
+def listing(name: str, errors: Sequence[GCodeError], notes: Sequence[Note]) -> List[str]:
+    """NAME:line N: why for each refusal and note, in line order; a note said on many lines
+    (an E word on every move) is one entry, at its first line, with the count of the others."""
+    by_text: Dict[str, List[int]] = {}
+    for note in notes:
+        by_text.setdefault(note.text, []).append(note.line)
+    entries = [(e.line, f"{name}:{e}") for e in errors]
+    for text, lines in by_text.items():
+        more = f" (and {len(lines) - 1} more line{'s' if len(lines) > 2 else ''} from line {lines[1]} on)" \
+            if len(lines) > 1 else ""
+        entries.append((lines[0], f"{name}:line {lines[0]}: note: {text}{more}"))
+    return [text for _line, text in sorted(entries, key=lambda e: e[0])]
+
+
+def write_refusal(name: str, exc: GCodeError, err: TextIO) -> None:
+    """Every refused line of a program (and its notes), each as NAME:line N: why, in line order."""
+    errors = all_errors(exc)
+    notes = exc.notes if isinstance(exc, GCodeErrors) else []
+    for text in listing(name, errors, notes):
+        err.write(text + "\n")
+    more = exc.more if isinstance(exc, GCodeErrors) else 0
+    if more:
+        err.write(f"{name}: ... and {more} more refused lines\n")
+    count = len(errors) + more
+    err.write(f"{name}: refused: {count} line{'s' if count != 1 else ''} the plotter cannot do; nothing moved\n")
 
 
 def run_check(args: argparse.Namespace, out: TextIO = None, err: TextIO = None) -> int:
@@ -175,24 +214,31 @@ def run_check(args: argparse.Namespace, out: TextIO = None, err: TextIO = None) 
     except ValueError as exc:
         err.write(f"{exc}\n")
         return EXIT_BAD_PROGRAM
-    try:
-        program = parse_program(decode_program(data), rapid_rate=args.rapid_rate, z_axis=args.z_axis,
-                                options=options)
-        items = program.items
-        if not args.no_limits:
-            check_limits(items, WorkArea(args.x_min, args.x_max, args.y_min, args.y_max,
-                                         args.z_min, args.z_max))
-    except GCodeError as exc:
-        err.write(f"{args.file}:{exc}\n")
+    x_min, x_max, y_min, y_max = args.area or (args.x_min, args.x_max, args.y_min, args.y_max)
+    if not (x_min < x_max and y_min < y_max and all(map(math.isfinite, (x_min, x_max, y_min, y_max)))):
+        err.write(f"work area X {x_min:g}..{x_max:g}, Y {y_min:g}..{y_max:g}: each minimum must be "
+                  f"below its maximum\n")
         return EXIT_BAD_PROGRAM
-    for note in program.notes:
-        err.write(f"{args.file}:{note}\n")
+    area = None if args.no_limits else WorkArea(x_min, x_max, y_min, y_max, args.z_min, args.z_max)
+    try:
+        program = check_program(decode_program(data), area, rapid_rate=args.rapid_rate, z_axis=args.z_axis,
+                                options=options)
+    except GCodeError as exc:
+        write_refusal(args.file, exc, err)
+        if args.json:
+            notes = exc.notes if isinstance(exc, GCodeErrors) else []
+            for line in sorted([*notes, *all_errors(exc)], key=lambda e: e.line):
+                out.write(json.dumps(_message_record(line)) + "\n")
+        return EXIT_BAD_PROGRAM
+    items = program.items
+    for text in listing(args.file, [], program.notes):
+        err.write(text + "\n")
     if args.json:
-        for item in items:
-            if isinstance(item, Move):
-                out.write(json.dumps(move_record(item)) + "\n")
-            elif isinstance(item, ZMove):
-                out.write(json.dumps(z_record(item)) + "\n")
+        records = [(item.line, 1, move_record(item) if isinstance(item, Move) else z_record(item))
+                   for item in items if isinstance(item, (Move, ZMove))]
+        records += [(note.line, 0, _message_record(note)) for note in program.notes]
+        for _line, _order, record in sorted(records, key=lambda r: (r[0], r[1])):
+            out.write(json.dumps(record) + "\n")
         return EXIT_OK
     _print_table(items, args.steps_per_mm, out, args.z_steps_per_mm)
     out.write(_summary(args.file, items, len(program.notes)) + "\n")

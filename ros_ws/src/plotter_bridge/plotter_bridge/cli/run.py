@@ -27,7 +27,7 @@ from plotter_bridge.gcode.types import GCodeError
 from plotter_bridge.link.protocol import DEFAULT_BAUD
 from plotter_bridge.motion.kinematics import DEFAULT_Z_STEPS_PER_MM
 
-from .check import dialect_args, gcode_options
+from .check import dialect_args, gcode_options, listing, write_refusal
 from .command import EXIT_BAD_PROGRAM, EXIT_FAILED, EXIT_OK, Command
 from .progress import ProgressDisplay
 
@@ -145,18 +145,26 @@ class StateRecorder:
 
 def write_pictures(args: argparse.Namespace, text: str, name: str, start: tuple,
                    trace_path: str, samples: List[tuple], err: TextIO) -> None:
-    """--svg/--png: what was drawn (the mock's step trace, else reported positions) over the program."""
-    from .picture import program_polylines, runs_by_pen, runs_near_path, write_picture
-    programmed = program_polylines(text, start, gcode_options(args)) if text else []
+    """--svg/--png: what was drawn (the mock's step trace, else reported positions) over the program,
+    framed by the work area (--area); none when the board drew nothing (a refused program)."""
+    from .picture import Area, program_polylines, runs_by_pen, runs_near_path, write_picture
     if trace_path:
         from plotter_bridge.sim.trace import read_trace
         spm = args.steps_per_mm or 80.0
-        runs = runs_near_path(((x / spm, y / spm) for _, x, y in read_trace(Path(trace_path))), programmed)
+        trace = [(x / spm, y / spm) for _, x, y in read_trace(Path(trace_path))]
+        moved = bool(trace)
     else:
-        runs = runs_by_pen(samples)
+        moved = len({(round(x, 3), round(y, 3)) for x, y, _ in samples}) > 1
+    if not moved:
+        err.write(f"no picture: the board did not move for {name}\n")
+        return
+    programmed = program_polylines(text, start, gcode_options(args)) if text else []
+    runs = runs_near_path(trace, programmed) if trace_path else runs_by_pen(samples)
+    area = getattr(args, "area", None) or (HANGING_AREA if getattr(args, "machine", "") == "hanging" else None)
+    frame = Area(*area) if area else Area()
     for path in (args.svg, args.png):
         if path:
-            write_picture(path, runs, programmed, title=name)
+            write_picture(path, runs, programmed, frame, title=name)
             err.write(f"picture: {path}\n")
 
 
@@ -169,10 +177,13 @@ def run_program_text(text: str, name: str, args: argparse.Namespace,
         # plotter's streamer reads in its own dialect unless the command names one.
         if not resume_id and (args.port or args.mock or getattr(args, "dialect", None)):
             program = parse_program(text, z_axis=getattr(args, "z_axis", False), options=gcode_options(args))
-            for note in program.notes:
-                err.write(f"{name}:{note}\n")
-    except ValueError as exc:  # GCodeError, or bad dialect options
-        err.write(f"{name}:{exc}\n" if isinstance(exc, GCodeError) else f"{exc}\n")
+            for line in listing(name, [], program.notes):
+                err.write(line + "\n")
+    except GCodeError as exc:
+        write_refusal(name, exc, err)
+        return EXIT_BAD_PROGRAM
+    except ValueError as exc:  # bad dialect options
+        err.write(f"{exc}\n")
         return EXIT_BAD_PROGRAM
     svg_out, png_out = getattr(args, "svg", ""), getattr(args, "png", "")
     if (png_out and Path(png_out).suffix.lower() != ".png") or \

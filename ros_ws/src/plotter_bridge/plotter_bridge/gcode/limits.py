@@ -3,9 +3,9 @@
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import Iterable
+from typing import Iterable, List
 
-from .types import GCodeError, Item, Move, ZMove
+from .types import GCodeError, GCodeErrors, Item, Move, ZMove
 from .geometry import arc_extreme_points
 
 # Points this close outside the area (mm) still count as inside: rounding noise.
@@ -34,28 +34,45 @@ class WorkArea:
 
 
 def check_limits(items: Iterable[Item], limits: WorkArea = WorkArea()) -> None:
-    """Raise GCodeError for the first move that leaves the work area (or
-    the Z axis' travel).
+    """Raise GCodeErrors naming every line whose move leaves the work area
+    (or the Z axis' travel)."""
+    errors = limit_errors(items, limits)
+    if errors:
+        raise GCodeErrors(errors)
+
+
+def limit_errors(items: Iterable[Item], limits: WorkArea = WorkArea()) -> List[GCodeError]:
+    """One GCodeError for each line with a move that leaves the work area (or
+    the Z axis' travel), for its first such move.
 
     Lines are checked at their end points (each start is the previous end, or
     the origin); arcs at their end points and at the extreme points of the
     quadrants they cross, so an arc bulging outside is caught even when both
     its ends are inside.
     """
+    errors: List[GCodeError] = []
+
+    def refuse(line: int, message: str) -> None:
+        if not errors or errors[-1].line != line:
+            errors.append(GCodeError(line, message))
+
     for item in items:
         if isinstance(item, ZMove) and not (limits.z_min - LIMIT_EPSILON <= item.z
                                             <= limits.z_max + LIMIT_EPSILON):
-            raise GCodeError(item.line, f"Z move to Z{item.z:.4f} is outside the Z axis' travel "
-                                        f"(Z {limits.z_min:g}..{limits.z_max:g} mm)")
+            refuse(item.line, f"Z move to Z{item.z:.4f} is outside the Z axis' travel "
+                              f"(Z {limits.z_min:g}..{limits.z_max:g} mm)")
         if not isinstance(item, Move):
             continue
         if not limits.contains(item.x, item.y):
-            raise GCodeError(item.line, f"move to X{item.x:.4f} Y{item.y:.4f} is outside "
-                                        f"the work area ({limits.describe()})")
+            refuse(item.line, f"move to X{item.x:.4f} Y{item.y:.4f} is outside "
+                              f"the work area ({limits.describe()})")
+            continue
         if item.kind != "arc":
             continue
         for px, py in arc_extreme_points((item.sx, item.sy), (item.x, item.y),
                                          (item.cx, item.cy), bool(item.cw)):
             if not limits.contains(px, py):
-                raise GCodeError(item.line, f"arc leaves the work area at X{px:.4f} "
-                                            f"Y{py:.4f} ({limits.describe()})")
+                refuse(item.line, f"arc leaves the work area at X{px:.4f} "
+                                  f"Y{py:.4f} ({limits.describe()})")
+                break
+    return errors

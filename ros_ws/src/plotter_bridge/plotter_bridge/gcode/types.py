@@ -7,7 +7,7 @@ power-on origin (after G92 offsets and inch conversion); feeds are mm/min.
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import Optional, Union
+from typing import List, Optional, Sequence, Union
 
 PEN_UP = "up"
 PEN_DOWN = "down"
@@ -23,6 +23,30 @@ class GCodeError(ValueError):
 
     def __str__(self) -> str:
         return f"line {self.line}: {self.message}"
+
+
+class GCodeErrors(GCodeError):
+    """Every refused line of one program, in line order: the whole reason it
+    is refused at once.  ``line`` and ``message`` are the first one's, so a
+    caller that shows one error shows the first; ``str()`` shows them all,
+    one per line of text, each as ``line N: why``."""
+
+    def __init__(self, errors: Sequence[GCodeError], notes: Sequence["Note"] = (), more: int = 0) -> None:
+        if not errors:
+            raise ValueError("GCodeErrors needs at least one error")
+        self.errors: List[GCodeError] = sorted(errors, key=lambda e: e.line)
+        self.notes: List[Note] = list(notes)   # what the program says that has no effect, for the listing
+        self.more = more                      # refused lines beyond those listed
+        super().__init__(self.errors[0].line, self.errors[0].message)
+
+    def __str__(self) -> str:
+        tail = [f"... and {self.more} more refused line{'s' if self.more != 1 else ''}"] if self.more else []
+        return "\n".join([str(e) for e in self.errors] + tail)
+
+
+def all_errors(exc: GCodeError) -> List[GCodeError]:
+    """The single errors of a GCodeError: itself, or each of a GCodeErrors'."""
+    return list(exc.errors) if isinstance(exc, GCodeErrors) else [exc]
 
 
 @dataclass(frozen=True)

@@ -11,8 +11,8 @@ from typing import List, Tuple
 from .commands import FIRMWARE_ACCEL, BoardCommand, cartesian_motion, to_commands, z_axis_motion
 from plotter_bridge.gcode.dialect import (DEFAULT_MARLIN_PEN_DOWN, DEFAULT_MARLIN_PEN_UP, DEFAULT_PEN_UP_Z,
                                           LINUXCNC, GCodeOptions)
-from plotter_bridge.gcode.parser import load_program
-from plotter_bridge.gcode.limits import WorkArea, check_limits
+from plotter_bridge.gcode.parser import check_program, decode_program
+from plotter_bridge.gcode.limits import WorkArea
 from plotter_bridge.gcode.steps import to_steps
 from plotter_bridge.gcode.types import GCodeError
 from .hanging import hanging_motion
@@ -61,7 +61,8 @@ class StreamerConfig:
 def compile_program(text: str, config: StreamerConfig,
                     start_steps: Tuple[int, int] = (0, 0), start_z_steps: int = 0) -> List[BoardCommand]:
     """G-code text to board commands for a pen now at start_steps (and, with
-    z_mode axis, a Z axis at start_z_steps); raises GCodeError naming the line."""
+    z_mode axis, a Z axis at start_z_steps); raises GCodeError naming the line (GCodeErrors, every
+    refused line of the program at once)."""
     data = text.encode("utf-8", "surrogateescape") if isinstance(text, str) else text
     if len(data) > MAX_PROGRAM_BYTES:
         raise GCodeError(0, f"program too large: {len(data)} bytes (limit {MAX_PROGRAM_BYTES})")
@@ -70,9 +71,9 @@ def compile_program(text: str, config: StreamerConfig,
     else:
         start = (start_steps[0] / config.steps_per_mm, start_steps[1] / config.steps_per_mm)
     z_axis = config.z_mode == "axis"
-    items = load_program(data, rapid_rate=config.rapid_feed, start=start, z_axis=z_axis,
-                         start_z=start_z_steps / config.z_steps_per_mm, options=config.gcode_options())
-    check_limits(items, config.area)
+    items = check_program(decode_program(data), config.area, rapid_rate=config.rapid_feed, start=start,
+                          z_axis=z_axis, start_z=start_z_steps / config.z_steps_per_mm,
+                          options=config.gcode_options()).items
     z_motion = z_axis_motion(config.z_steps_per_mm) if z_axis else None
     if config.machine == "hanging":
         commands = to_commands(items, hanging_motion(config.hanging, config.tolerance), config.rapid_feed,

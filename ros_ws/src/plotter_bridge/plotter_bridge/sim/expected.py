@@ -16,10 +16,12 @@ from .firmware_core import FirmwareCore, find_library
 Point = Tuple[int, int]
 
 
-def step_positions(commands: Iterable[str], start: Point = (0, 0), library: Optional[Path] = None) -> List[Point]:
+def step_positions(commands: Iterable[str], start: Point = (0, 0), library: Optional[Path] = None,
+                   limit: Optional[int] = None) -> List[Point]:
     """The position after every step the firmware core takes for these board
-    command lines (BoardCommand.text), the pen starting at `start` (steps).
-    The core's own main loop takes them as its queue frees, as on the board."""
+    command lines (BoardCommand.text), the pen starting at `start` (steps);
+    with `limit`, the first that many.  The core's own main loop takes them
+    as its queue frees, as on the board."""
     core = FirmwareCore(library or find_library())
     try:
         # The core starts at 0 after its reset; its moves are relative.
@@ -31,18 +33,20 @@ def step_positions(commands: Iterable[str], start: Point = (0, 0), library: Opti
             if here != last:
                 positions.append((here[0] + x0, here[1] + y0))
                 last = here
+                if limit is not None and len(positions) >= limit:
+                    break
         return positions
     finally:
         core.close()
 
 
 def program_steps(text: str, config: StreamerConfig, start: Point = (0, 0),
-                  library: Optional[Path] = None) -> List[Point]:
+                  library: Optional[Path] = None, limit: Optional[int] = None) -> List[Point]:
     """Every step position of a G-code program compiled as gcode_streamer
     compiles it for a pen at `start` (steps): a cartesian machine's, whose
     motor steps are the pen's.  Raises GCodeError for a program it refuses."""
     commands = compile_program(text, config, start)
-    return step_positions((c.text for c in commands), start, library)
+    return step_positions((c.text for c in commands), start, library, limit)
 
 
 def mm(value: int, steps_per_mm: float) -> str:
