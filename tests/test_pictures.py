@@ -111,3 +111,24 @@ def test_plotter_stream_writes_pictures_of_the_trace(tmp_path):
     check_png_matches(png, runs, fig, (int(fig.bbox.width), int(fig.bbox.height)))
     r = plotter("stream", program, "--mock", "--quiet", "--png", tmp_path / "x.jpg")
     assert r.returncode == 2 and ".png" in r.stderr
+
+
+def test_stream_pictures_frame_the_work_area_and_none_without_a_move(tmp_path, monkeypatch):
+    """--area -150 150 -110 110: the frame is that area, not grown from 0..200; a board that did not
+    move (a refused program) gets no picture at all."""
+    import argparse
+    import io
+    from plotter_bridge.cli import picture, run
+    frames = []
+    monkeypatch.setattr(picture, "write_picture", lambda path, runs, programmed, area, title: frames.append(area))
+    trace = tmp_path / "trace.csv"
+    trace.write_text("t_s,x_steps,y_steps\n0.0,80,0\n0.1,160,0\n")
+    args = argparse.Namespace(area=[-150.0, 150.0, -110.0, 110.0], machine="cartesian", steps_per_mm=80.0,
+                              svg=str(tmp_path / "p.svg"), png="", dialect=None)
+    err = io.StringIO()
+    run.write_pictures(args, "G21 F100\nM3\nG1 X2\n", "p", (0.0, 0.0), str(trace), [], err)
+    assert frames == [Area(-150.0, 150.0, -110.0, 110.0)] and "picture: " in err.getvalue()
+    trace.write_text("t_s,x_steps,y_steps\n")
+    err = io.StringIO()
+    run.write_pictures(args, "G21 F100\nM3\nG1 X2\n", "p", (0.0, 0.0), str(trace), [], err)
+    assert len(frames) == 1 and err.getvalue() == "no picture: the board did not move for p\n"

@@ -213,9 +213,12 @@ def draw(runs: Sequence[Run], programmed: Sequence[Polyline], area: Area = Area(
     w_mm, h_mm = area.x_max - area.x_min, area.y_max - area.y_min
     dpi = 100.0
     margin_px = 60.0
-    w_px, h_px = w_mm * scale_px_per_mm + 2 * margin_px, h_mm * scale_px_per_mm + 2 * margin_px
+    # Room on the left for the Y tick labels ("-110" is wider than "200") and the Y label beside them.
+    digits = max(len(f"{area.y_min:.0f}"), len(f"{area.y_max:.0f}"))
+    left_px = 36.0 + 9.0 * digits
+    w_px, h_px = w_mm * scale_px_per_mm + left_px + margin_px, h_mm * scale_px_per_mm + 2 * margin_px
     fig = Figure(figsize=(w_px / dpi, h_px / dpi), dpi=dpi)
-    ax = fig.add_axes((margin_px / w_px, margin_px / h_px, 1 - 2 * margin_px / w_px, 1 - 2 * margin_px / h_px))
+    ax = fig.add_axes((left_px / w_px, margin_px / h_px, 1 - (left_px + margin_px) / w_px, 1 - 2 * margin_px / h_px))
     ax.set_xlim(area.x_min, area.x_max)
     ax.set_ylim(area.y_min, area.y_max)
     ax.set_aspect("equal", adjustable="box")

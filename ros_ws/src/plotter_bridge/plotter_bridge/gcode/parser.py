@@ -56,7 +56,7 @@ from dataclasses import dataclass, field
 from typing import Tuple, Dict, List, Optional
 
 from . import geometry
-from .dialect import MAX_SERVO_ANGLE, GCodeOptions, m_code_reason
+from .dialect import MAX_SERVO_ANGLE, GCodeOptions, dialect_hint, m_code_reason
 from .types import (PEN_DOWN, PEN_UP, Dwell, GCodeError, GCodeErrors, Item, Move, Note, Pause,
                     PenChange, ZMove)
 from .limits import WorkArea, check_limits, limit_errors
@@ -132,10 +132,57 @@ def _g_name(code: int) -> str:
     return f"G{code // 10}" + (f".{code % 10}" if code % 10 else "")
 
 
+_FEATURES = {range(380, 386): "probing: a plotter has no probe",
+             range(410, 421): "cutter radius compensation: a pen has no radius",
+             range(100, 101): "setting offsets and tool tables",
+             range(50, 60): "splines: send the curve as arcs or lines",
+             range(330, 332): "threading", range(760, 761): "threading",
+             range(730, 900): "canned cycles other than drilling (G81, G82)"}
+
+
+def _unsupported_feature(code: int, exact: bool) -> str:
+    """': <the feature>' for a G code that names one, else ''."""
+    for codes, feature in _FEATURES.items():
+        if exact and code in codes:
+            return f": {feature}, not supported"
+    return ""
+
+
+def _g_group(value: float, line: int, st: _State) -> Tuple[int, str]:
+    """A G word's code in tenths and its modal group; GCodeError naming the feature of one
+    the dialect does not take."""
+    rules = st.options.rules
+    code = round(value * 10)
+    exact = abs(value * 10 - code) <= 1e-6
+    if exact and code in rules.refused_g:
+        raise GCodeError(line, rules.refused_g[code])
+    group = _G_GROUPS.get(code)
+    if group is None and exact and code in _DIALECT_G_GROUPS:
+        if code in rules.noted_g or (code in _DRILL and rules.drill_cycles):
+            group = _DIALECT_G_GROUPS[code]
+        else:
+            raise GCodeError(line, f"{_g_name(code)} is refused in the {st.options.dialect} dialect, as its "
+                                   f"firmware refuses it" + (" (with --dialect linuxcnc each hole is a dot)"
+                                                             if code in _DRILL else ""))
+    if not exact or group is None:
+        raise GCodeError(line, f"unsupported G code G{value:g}" + _unsupported_feature(code, exact))
+    if code in (180, 190):
+        raise GCodeError(line, f"{_g_name(code)}: only the XY plane (G17) is supported")
+    return code, group
+
+
 def _split_words(words: List[Word], line: int, st: _State):
     """(G codes by modal group, M code or None, other words by letter, N);
     the words the dialect accepts without effect become notes."""
     rules = st.options.rules
+    # The G codes first: "G41 D1" is refused for G41 (what it asks), not for its D word.
+    for w in words:
+        if w.letter == "G":
+            _g_group(w.value, line, st)
+    unknown = next((w for w in words if not w.known), None)
+    if unknown is not None:
+        raise GCodeError(line, f"unsupported word letter '{unknown.letter}'"
+                               + dialect_hint(unknown.letter, st.options.dialect))
     groups: Dict[str, int] = {}
     others: Dict[str, float] = {}
     n: Optional[int] = None
@@ -147,25 +194,7 @@ def _split_words(words: List[Word], line: int, st: _State):
                 raise GCodeError(line, "N word must be a whole number")
             n = int(w.value)
         elif w.letter == "G":
-            code = round(w.value * 10)
-            exact = abs(w.value * 10 - code) <= 1e-6
-            if exact and code in rules.refused_g:
-                raise GCodeError(line, rules.refused_g[code])
-            group = _G_GROUPS.get(code)
-            if group is None and exact and code in _DIALECT_G_GROUPS:
-                if code in rules.noted_g or (code in _DRILL and rules.drill_cycles):
-                    group = _DIALECT_G_GROUPS[code]
-                else:
-                    raise GCodeError(line, f"{_g_name(code)} is refused in the {st.options.dialect} dialect, as its "
-                                           f"firmware refuses it" + (" (with --dialect linuxcnc each hole is a dot)"
-                                                                     if code in _DRILL else ""))
-            if not exact or group is None:
-                raise GCodeError(line, f"unsupported G code G{w.value:g}"
-                                 + (": canned cycles other than drilling (G81, G82) are not supported"
-                                    if exact and 730 <= code <= 890 else ""))
-            if code in (180, 190):
-                raise GCodeError(line, f"{_g_name(code)}: only the XY plane (G17) "
-                                       f"is supported")
+            code, group = _g_group(w.value, line, st)
             if code in rules.noted_g:
                 st.notes.append(Note(line, rules.noted_g[code]))
             if group in groups:

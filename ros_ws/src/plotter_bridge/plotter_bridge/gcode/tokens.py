@@ -33,6 +33,7 @@ _HINTS = {"[": "expressions in brackets are not supported",
 class Word:
     letter: str
     value: float          # NaN: an axis letter without a number (only G28/G30 take one)
+    known: bool = True    # a letter of the dialect (an unknown one is refused after the line's G codes)
 
     @property
     def bare(self) -> bool:
@@ -102,12 +103,16 @@ def tokenize_line(text: str, line: int, options: GCodeOptions = GCodeOptions()) 
             raise GCodeError(line, "')' without a comment to close")
         elif "A" <= ch.upper() <= "Z":
             letter = ch.upper()
-            if letter not in letters:
-                raise GCodeError(line, f"unsupported word letter '{letter}'" + dialect_hint(letter, options.dialect))
+            known = letter in letters
+            if letter == "O":
+                raise GCodeError(line, "unsupported word letter 'O' (O-words: subroutines, loops and "
+                                       "conditions are not supported)")
             j = i + 1
             while j < len(text) and text[j] in " \t":
                 j += 1
             m = _NUMBER.match(text, j)
+            if m is None and not known:
+                raise GCodeError(line, f"unsupported word letter '{letter}'" + dialect_hint(letter, options.dialect))
             if m is None:
                 if letter in BARE_AXIS_LETTERS:
                     out.words.append(Word(letter, math.nan))
@@ -119,7 +124,7 @@ def tokenize_line(text: str, line: int, options: GCodeOptions = GCodeOptions()) 
             value = float(m.group())
             if abs(value) > MAX_ABS_VALUE:
                 raise GCodeError(line, f"number out of range in '{letter}{m.group()}' (at most {MAX_ABS_VALUE:g})")
-            out.words.append(Word(letter, value))
+            out.words.append(Word(letter, value, known))
             i = m.end()
             if letter == "M" and value in rules.message_m:
                 rest = text[i:].strip()
