@@ -413,7 +413,7 @@ def _go_home(st: _State, o: Dict[str, float], line: int, n: Optional[int], rapid
     named = [a for a in _AXES if a in o] or list(_AXES)
     homed = " ".join(a + "0" for a in named if a != "Z" or st.z_axis)
     what = (f"with the pen up to {homed} of the machine (the origin)" if homed else "the pen up, its home")
-    st.notes.append(Note(line, f"{_g_name(code)} go home: {what}; no homing switches are sought"))
+    st.notes.append(Note(line, f"{_g_name(code)} go home: {what}; no limit switch is sought"))
 
     def target(axis: str, here: float, offset: float) -> float:
         value = o.get(axis, math.nan)
