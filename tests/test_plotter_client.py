@@ -253,9 +253,9 @@ def test_the_readme_workflow_commands_are_the_ones_tested():
 
 def test_a_job_names_its_own_dialect_for_the_running_streamer(graph, tmp_path):
     program = tmp_path / "laser.gcode"
-    program.write_text("G21 G90\nG0 X40 Y170\nM3 S1000\nG1 X60 Y170 F2000\nM5\nM2\n")
-    r = plotter(graph, "stream", str(program))                   # the streamer reads linuxcnc
-    assert r.returncode == 1 and "line 3" in r.stderr and "--dialect grbl" in r.stderr, r.stderr
+    program.write_text("G21 G90\nG0 X40 Y170\nM3 S1000\nG2 X60 Y170 I10 J0 K0 F2000\nM5\nM2\n")
+    r = plotter(graph, "stream", str(program))                   # the streamer reads linuxcnc: no K on XY arcs
+    assert r.returncode == 1 and "line 4" in r.stderr and "--dialect grbl" in r.stderr, r.stderr
     r = plotter(graph, "stream", str(program), "--dialect", "grbl", "--quiet")
     assert r.returncode == 0, r.stderr
     r = plotter(graph, "stream", str(program), "--dialect", "grbl", "--pen-up-z", "2")

@@ -87,10 +87,14 @@ class GraphClient:
         result = handle.get_result_async()
         try:
             while not _wait(result, 0.2):
-                pass
+                if not self._context.ok():
+                    # rclpy's own Ctrl-C handling shut the context down before Python raised
+                    # KeyboardInterrupt here: nothing can arrive any more, so end as Ctrl-C does.
+                    raise KeyboardInterrupt
         except KeyboardInterrupt:
-            handle.cancel_goal_async()
-            _wait(result, CANCEL_WAIT_S)
+            if self._context.ok():
+                handle.cancel_goal_async()
+                _wait(result, CANCEL_WAIT_S)
             raise
         wrapped = result.result()
         status = {GoalStatus.STATUS_SUCCEEDED: "succeeded", GoalStatus.STATUS_CANCELED: "canceled"}.get(

@@ -16,6 +16,7 @@ from .teardown import teardown_watchdog
 
 EXIT_OK = 0
 EXIT_BAD_PARAMETER = 1
+SPIN_STEP_S = 0.25     # s the main thread waits for work before it looks at signals and shutdown again
 
 #: The namespace of a node started without a remap; `-r __ns:=/plotter2`
 #: runs a second plotter beside the first.
@@ -37,7 +38,11 @@ def run_node(make: Callable[[], Node], name: str, args: Optional[List[str]] = No
         node = make()
         executor = MultiThreadedExecutor(num_threads=threads)
         executor.add_node(node)
-        executor.spin()
+        # In steps, not one spin(): rclpy wakes a waiting spin() on Ctrl-C with a guard condition, and
+        # a node beside CPU-bound processes once sat 15 s in that wait after SIGINT.  Coming back to
+        # Python every SPIN_STEP_S lets the KeyboardInterrupt Python has pending be raised here.
+        while executor.context.ok():
+            executor.spin_once(timeout_sec=SPIN_STEP_S)
     except (KeyboardInterrupt, ExternalShutdownException):
         pass
     except (ValueError, ParameterException) as exc:
