@@ -188,7 +188,7 @@ REFUSED = [
     ("linuxcnc", "G55\nG0 X1\n", 1, "G55 (work coordinate system 2) is refused: G54 is the only one"),
     ("linuxcnc", "M62 P1\nG0 X1\n", 1, "unsupported M code M62"),
     ("linuxcnc", "G1 X1 E2 F100\n", 1, "unsupported word letter 'E' (an extruder word"),
-    ("linuxcnc", "G0 X1\n$H\n", 2, "homing cycle $H is refused: the plotter has no homing cycle"),
+    ("linuxcnc", "G0 X1\n$H\n", 2, "homing cycle $H is refused: the homing cycle runs between jobs"),
     ("grbl", "G21\n$H\nG0 X1\n", 2, "grbl's homing cycle $H is refused"),
     ("grbl", "$J=G91 X10 F100\nG0 X1\n", 1, "grbl jog '$J=G91' is refused"),
     ("grbl", "  $32=1\nG0 X1\n", 1, "grbl system command '$32=1' is refused"),

@@ -153,7 +153,7 @@ def test_g28_z_lifts_the_pen_and_on_a_z_axis_goes_to_z0():
 
 
 def test_homing_cycle_and_stored_homes_are_refused_with_the_reason():
-    assert "no homing cycle" in refusal("$H\nG0 X1\n", "grbl").message
+    assert "the homing cycle runs between jobs" in refusal("$H\nG0 X1\n", "grbl").message
     assert "G28.1 (store the home position) is refused" in refusal("G0 X1\nG28.1\n").message
 
 

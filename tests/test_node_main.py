@@ -11,9 +11,9 @@ pytestmark = pytest.mark.ros
 
 # (module, a parameter it refuses: a value out of range and a value of the wrong type)
 NODES = [
-    ("plotter_bridge.nodes.serial_bridge", ("steps_per_mm:=-80.0", "status_hz:=fast")),
+    ("plotter_bridge.nodes.serial_bridge", ("steps_per_mm:=-80.0", "status_hz:=fast", "homing_travel:=500.0")),
     ("plotter_bridge.nodes.gcode_streamer", ("bridge_timeout:=0.5", "x_max:=wide", "dialect:=fanuc", "marlin_pen_up:=30.2")),
-    ("plotter_bridge.nodes.mock_board", ("baud:=0", "baud:=fast")),
+    ("plotter_bridge.nodes.mock_board", ("baud:=0", "baud:=fast", "switches:=north", "switches:=5,5")),
     ("plotter_shapes.shape_server_node", ("default_size:=-5.0", "default_feed:=slow")),
 ]
 HEALTHY = {

@@ -101,6 +101,11 @@ void core_reset(void)
 void core_panel_tick(void) { panel_tick(); }
 void core_set_key(int key) { host_key = (uint8_t)key; }
 void core_set_limits(int bits) { host_limits = (uint8_t)bits; }
+/* The switches by axis, whatever pins this build's direction bits are on: closed at the -X, -Y end. */
+void core_set_switches(int x_closed, int y_closed)
+{
+    host_limits = (uint8_t)((x_closed ? BIT_X_DIR : 0) | (y_closed ? BIT_Y_DIR : 0));
+}
 void core_set_estop(int on) { host_estop = (uint8_t)on; }
 const char *core_lcd_line(int n) { return lcd_text[n & 1]; }
 int core_segment(int digit) { return host_seg[digit & 7]; }

@@ -5,7 +5,7 @@ Without `--port` or `--mock` the job goes to the node graph running in
 launch`, on this machine or another in the same ROS domain): `stream`,
 `svg`, `text` and `resume` send a `run_program` goal to gcode_streamer,
 `draw` a `draw` goal to shape_server; `state` reads `/plotter/state` once,
-`hold`, `resume`, `estop`, `reset` and `set-origin` call serial_bridge's
+`hold`, `resume`, `estop`, `reset`, `set-origin` and `home` call serial_bridge's
 services.  Ctrl-C cancels the goal: the pen stops where it is and nothing
 more is drawn.
 """
@@ -102,14 +102,14 @@ class GraphClient:
         return GoalOutcome(status, wrapped.result)
 
     # --- services and topics -------------------------------------------------------------
-    def trigger(self, service: str) -> tuple:
+    def trigger(self, service: str, timeout: float = WAIT_S * 2) -> tuple:
         """Call a std_srvs/Trigger service of the bridge: (success, message)."""
         from std_srvs.srv import Trigger
         client = self.node.create_client(Trigger, service)
         if not client.wait_for_service(timeout_sec=WAIT_S):
             raise missing("service", self.name(service), "serial_bridge")
         future = client.call_async(Trigger.Request())
-        if not _wait(future, WAIT_S * 2):
+        if not _wait(future, timeout):
             raise missing("service", self.name(service), "serial_bridge")
         response = future.result()
         return response.success, response.message

@@ -439,7 +439,10 @@ _STATE = Command("state", "print the board's state once (like ros2 topic echo --
 BUTTONS = {"hold": ("hold", "feed hold: the pen stops on its path; plotter resume goes on"),
            "estop": ("estop", "emergency stop: the board stops at once and waits for a reset"),
            "reset": ("reset", "reset the board after an alarm, keeping the position"),
-           "set-origin": ("set_origin", "make where the pen is the origin (0, 0)")}
+           "set-origin": ("set_origin", "make where the pen is the origin (0, 0)"),
+           "home": ("home", "the homing cycle: seek the -X and -Y limit switches, back off, make that the "
+                            "origin (serial_bridge's homing:=true)")}
+HOME_WAIT_S = 600.0      # s the homing cycle may take: two seeks over the whole table at the slowest feed
 
 
 def run_trigger(command: str, args: argparse.Namespace, out: TextIO = sys.stdout,
@@ -448,7 +451,7 @@ def run_trigger(command: str, args: argparse.Namespace, out: TextIO = sys.stdout
     service = BUTTONS[command][0] if command in BUTTONS else command
     with GraphClient(args.namespace) as client:
         try:
-            ok, message = client.trigger(service)
+            ok, message = client.trigger(service, HOME_WAIT_S) if service == "home" else client.trigger(service)
         except Missing as exc:
             err.write(f"{command}: {exc}\n")
             return EXIT_FAILED

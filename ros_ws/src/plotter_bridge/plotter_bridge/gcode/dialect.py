@@ -36,9 +36,9 @@ select) and M7/M8/M9 (coolant) are notes.  M6 (tool change) lifts the pen
 and is a note: the plotter has one pen, and the job goes on.  M1 (optional
 stop) is M0.  G28/G30 go home: with the pen up, to the given point and then
 to the origin (X0 Y0 of the machine: where the board was powered on or
-set_origin put it), as on a machine without homing switches; a homing
-cycle that seeks the board's limit switches is not built, so grbl's ``$H``
-is refused.  Z moves the pen (unless Z is a third axis): Z above
+set_origin or the homing cycle put it).  The homing cycle (seeking the
+board's limit switches) runs between jobs, with ``plotter home``, not from
+a program: grbl's ``$H`` in a file is refused, naming it.  Z moves the pen (unless Z is a third axis): Z above
 ``pen_up_z`` is up, at or below it down; once a program drives the pen with
 a servo (M300/M280), Z no longer moves it.  M3 does not stop Z from moving
 the pen: CAM programs start the spindle once and draw with Z.  M codes of 100 and above
@@ -59,8 +59,8 @@ DEFAULT_MARLIN_PEN_DOWN = 30.0      # degrees, as the MakerBot Unicorn extension
 DEFAULT_MARLIN_PEN_UP = 50.0
 SERVO_ANGLE_TOLERANCE = 0.5         # degrees: "M300 S30.00" and "S30" are the same angle
 
-_NO_HOME = ("the plotter has no homing cycle (seeking its limit switches); its origin is where the board "
-            "was powered on (or where set_origin put it), and G28 travels there with the pen up")
+_NO_HOME = ("the homing cycle runs between jobs, not from a program: `plotter home` before it (serial_bridge "
+            "homing:=true on a machine with its limit switches wired); G28 travels to the origin with the pen up")
 _PATH_NOTE = "path control mode: no effect, the planner blends corners by junction_deviation"
 MAX_SERVO_ANGLE = 180.0             # degrees: an M300 S above it is not a servo position (a beep)
 MARLIN_DEFAULT_FEED = 1500.0        # mm/min: Marlin's feed rate before the first F

@@ -374,8 +374,9 @@ class BoardSession:
             return self._cond.wait_for(lambda: self.connection == CONNECTED, timeout)
 
     # --- jobs ---------------------------------------------------------------------
-    def start_job(self, commands: List[str], lines: List[int]) -> Job:
-        """Queue a job; its `result` is set when it ends (see wait_job)."""
+    def start_job(self, commands: List[str], lines: List[int], need_origin: bool = True) -> Job:
+        """Queue a job; its `result` is set when it ends (see wait_job).  The homing cycle's
+        moves (need_origin False) run where the position is not known yet."""
         with self.lock:
             if self.job is not None and self.job.result is None:
                 raise RuntimeError("another job is running")
@@ -383,7 +384,7 @@ class BoardSession:
             st = self.link.status if self.link else None
             if self.connection != CONNECTED or st is None:
                 why = "board not connected"
-            elif not self.position_known:
+            elif need_origin and not self.position_known:
                 why = "position unknown after a board reset: set the origin first"
             elif st.state == "Alarm":
                 why = "board in alarm: reset it first"
@@ -527,6 +528,11 @@ class BoardSession:
         with self._cond:
             self._cond.wait_for(lambda: self._origin_result is not None, timeout)
             result = self._origin_result
+            if result == "":
+                # A job started next plans its end from the last status: wait for one at the new origin.
+                reports = self.status_count
+                self._cond.wait_for(lambda: self.status_count > reports and self.link.status is not None
+                                    and (self.link.status.x, self.link.status.y) == (0, 0), timeout)
         if result is None:
             return False, "the board did not answer"
         return (True, "origin set") if result == "" else (False, result)

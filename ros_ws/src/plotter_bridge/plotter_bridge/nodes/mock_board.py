@@ -9,14 +9,19 @@ board started), `baud` (byte rate of the simulated UART), `faults` (faults on
 the serial line and board events, e.g. `drop=0.01,corrupt=0.01,dup=0.001,
 unplug_at=4000,unplug_for=2,reset_at=9000`; see sim/faults.py).
 
+`switches` ("X,Y" in mm from where the board is powered on, e.g. "-6.5,-4")
+puts limit switches at the -X and -Y ends of an XY table: each closes at and
+beyond its position, as the board's P1.5 and P1.7 (firmware/README.md).
+
 Services `~/unplug` (the pty vanishes for `unplug_for` seconds and comes back
 at the same link path) and `~/power_cycle` (the board resets) simulate the
 same events on demand.
 """
 from __future__ import annotations
 
+import math
 import sys
-from typing import Optional
+from typing import Optional, Tuple
 
 from rclpy.node import Node
 from std_msgs.msg import String
@@ -38,8 +43,34 @@ SPECS = (
     ParamSpec("faults", "", "serial faults and board events, e.g. drop=0.01,corrupt=0.01,dup=0.001,"
                             "delay=0.001,seed=1,unplug_at=STEPS,unplug_for=S,reset_at=STEPS", read_only=True),
     ParamSpec("unplug_for", 2.0, "how long the port stays away on ~/unplug", "s", low=0.0, high=3600.0),
+    ParamSpec("switches", "", "limit switches at the -X and -Y ends: 'X,Y' in mm from the power-on position "
+                              "('' = none)", read_only=True),
     *MACHINE,
 )
+
+
+def switches_mm(text: str) -> Optional[Tuple[float, float]]:
+    """'X,Y' in mm, or None for ''; ValueError naming what is wrong."""
+    if not text.strip():
+        return None
+    parts = text.split(",")
+    try:
+        x, y = (float(v) for v in parts)
+    except ValueError:
+        raise ValueError(f"switches = {text!r}: two numbers 'X,Y' in mm, e.g. '-6.5,-4'") from None
+    if not (math.isfinite(x) and math.isfinite(y) and x <= 0.0 and y <= 0.0):
+        raise ValueError(f"switches = {text!r}: the switches are at or below the power-on position (X, Y <= 0)")
+    return x, y
+
+
+def check_switches(values) -> Optional[str]:
+    try:
+        switches_mm(str(values["switches"]))
+    except ValueError as exc:
+        return str(exc)
+    if str(values["switches"]).strip() and values["machine"] != "cartesian":
+        return "switches: only on the XY table (machine cartesian)"
+    return None
 
 
 def check_faults(values) -> Optional[str]:
@@ -53,11 +84,16 @@ def check_faults(values) -> Optional[str]:
 class MockBoardNode(Node):
     def __init__(self, *, namespace: str = DEFAULT_NAMESPACE, **kwargs) -> None:
         super().__init__("mock_board", namespace=namespace, **kwargs)
-        self.params = NodeParameters(self, SPECS, cross=all_of(check_machine, check_faults))
+        self.params = NodeParameters(self, SPECS, cross=all_of(check_machine, check_faults, check_switches))
         p = self.params
+        machine = machine_of(p.values())
+        switches = switches_mm(str(p["switches"]))
         config = MockBoardConfig(baud=int(p["baud"]), link=str(p["link"]), trace=str(p["trace"]),
                                  seq_log=str(p["seq_log"]), faults=parse_faults(str(p["faults"])),
-                                 machine=machine_of(p.values()))
+                                 machine=machine,
+                                 switches=None if switches is None else
+                                 (math.floor(switches[0] * machine.steps_per_mm),
+                                  math.floor(switches[1] * machine.steps_per_mm)))
         self.board = MockBoard(config)
         self.create_publisher(String, "mock_port", latched()).publish(String(data=self.board.port_path))
         self.create_service(Trigger, "~/unplug", self._srv_unplug)

@@ -49,6 +49,7 @@ from plotter_interfaces.srv import JobStatus
 
 from plotter_bridge.link.board_session import (CONNECTING, DISCONNECTED, QUEUE_SIZE, BoardSession, Job, JobResult,
                                                SessionConfig)
+from plotter_bridge.link.homing import HomingConfig, home, homing_config
 from plotter_bridge.link.protocol import Status
 from plotter_bridge.link.serial_port import open_port
 
@@ -116,6 +117,15 @@ SPECS = (
     ParamSpec("reconnect_timeout", 30.0, "how long a job waits for a vanished port before it is aborted", "s",
               low=0.0, high=3600.0),
     ParamSpec("frame_id", "plotter", "frame of the position, paths and markers", read_only=True),
+    ParamSpec("homing", False, "the machine has its limit switches wired at the -X and -Y ends: `home` seeks "
+                               "them (without, a seek would run the carriage into the frame)"),
+    ParamSpec("homing_seek", 1200.0, "feed of the homing cycle's seek and pull-off", "mm/min", low=1.0,
+              high=30000.0),
+    ParamSpec("homing_locate", 120.0, "feed of the homing cycle's slow second approach", "mm/min", low=1.0,
+              high=30000.0),
+    ParamSpec("homing_pull_off", 2.0, "how far the homing cycle backs off a switch; the origin is there", "mm",
+              low=0.05, high=50.0),
+    ParamSpec("homing_travel", 250.0, "the longest seek for a switch", "mm", low=1.0, high=400.0),
     *MACHINE,
 )
 JOB_MEMORY = 256                # finished jobs the job_status service still knows
@@ -126,7 +136,20 @@ def check_bridge(values) -> Optional[str]:
     for name in ("port", "frame_id"):
         if not str(values[name]).strip():
             return f"{name} = '': must be a name, not empty"
-    return check_machine(values)
+    why = check_machine(values)
+    if why is None and values["machine"] == "cartesian":
+        try:
+            bridge_homing(values)
+        except ValueError as exc:
+            return str(exc)
+    return why
+
+
+def bridge_homing(values) -> HomingConfig:
+    """The homing cycle's settings in steps, from the parameters in mm."""
+    spm = machine_of(values).steps_per_mm
+    return homing_config(float(values["homing_seek"]), float(values["homing_locate"]),
+                         float(values["homing_pull_off"]), float(values["homing_travel"]), spm)
 
 
 @dataclass
@@ -155,7 +178,7 @@ class SerialBridge(Node):
         group = ReentrantCallbackGroup()
         for name, handler in (("estop", self._srv_estop), ("hold", self._srv_hold),
                               ("resume", self._srv_resume), ("reset", self._srv_reset),
-                              ("set_origin", self._srv_set_origin)):
+                              ("set_origin", self._srv_set_origin), ("home", self._srv_home)):
             self.create_service(Trigger, name, handler, callback_group=group)
         self.create_service(JobStatus, "job_status", self._srv_job_status, callback_group=group)
         self._waker = Waker(self)
@@ -165,7 +188,8 @@ class SerialBridge(Node):
                                     goal_callback=self._on_goal, cancel_callback=lambda _: CancelResponse.ACCEPT,
                                     callback_group=MutuallyExclusiveCallbackGroup())
         self._running: Optional[_Running] = None
-        self._reserved = False
+        self._reserved = False          # a job or the homing cycle has the board
+        self._reserve_lock = threading.Lock()
         self._finished: "OrderedDict[str, JobResult]" = OrderedDict()
         self._telemetry = BridgeTelemetry(self, self.steps_per_mm, self.frame_id, self.port_name,
                                           to_pen=self._pen_steps if self.machine.kind != "cartesian" else None)
@@ -268,13 +292,20 @@ class SerialBridge(Node):
     # --- action: stream a job ------------------------------------------------
     def _on_goal(self, goal) -> GoalResponse:
         why = validate_goal(list(goal.commands), list(goal.lines))
-        if why is None and self._reserved:
-            why = "another job is running (the board takes one job at a time)"
+        if why is None and not self._reserve():
+            why = "another job or the homing cycle is running (the board takes one job at a time)"
         if why:
             self.get_logger().warn(f"stream_commands goal rejected: {why}")
             return GoalResponse.REJECT
-        self._reserved = True
         return GoalResponse.ACCEPT
+
+    def _reserve(self) -> bool:
+        """Take the board for a job or the homing cycle; False if something has it."""
+        with self._reserve_lock:
+            if self._reserved:
+                return False
+            self._reserved = True
+            return True
 
     @staticmethod
     def _job_id(goal_handle) -> str:
@@ -393,6 +424,25 @@ class SerialBridge(Node):
 
     def _srv_set_origin(self, request, response):
         response.success, response.message = self.session.set_origin()
+        return response
+
+    def _srv_home(self, request, response):
+        if self.machine.kind != "cartesian":
+            response.success, response.message = False, "homing: only on the XY table (machine cartesian)"
+        elif not bool(self.params["homing"]):
+            response.success, response.message = False, (
+                "homing is off: set homing:=true on a machine with its limit switches wired at the -X and "
+                "-Y ends (firmware/README.md); without them a seek would run into the frame")
+        elif not self._reserve():
+            response.success, response.message = False, "a job is running: home when the board is idle"
+        else:
+            try:
+                self.get_logger().info("homing cycle: seeking the -X, then the -Y limit switch")
+                config = bridge_homing(self.params.values())
+                response.success, response.message = home(self.session, config, log=self.get_logger().info)
+            finally:
+                self._reserved = False
+            (self.get_logger().info if response.success else self.get_logger().error)(response.message)
         return response
 
     def destroy_node(self) -> None:

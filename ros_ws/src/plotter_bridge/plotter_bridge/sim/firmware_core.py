@@ -101,6 +101,11 @@ class FirmwareCore:
             if n < len(self._txbuf):
                 return bytes(out)
 
+    def set_switches(self, x_closed: bool, y_closed: bool) -> None:
+        """The limit switches at the -X and -Y ends (the board's image only)."""
+        if self.has_panel:
+            self._lib.core_set_switches(int(x_closed), int(y_closed))
+
     def panel_tick(self) -> None:
         """The front panel's 1 ms tick of the board's main loop: keys, the
         built-in figures (a serial `a` draws the star), the displays."""

@@ -33,7 +33,7 @@ import time
 import tty
 from dataclasses import dataclass
 from pathlib import Path
-from typing import IO, Optional
+from typing import IO, Optional, Tuple
 
 from .faults import FaultCounts, FaultSpec, FaultyChannel
 from .firmware_core import CYCLES_PER_S, FirmwareCore, find_library
@@ -59,12 +59,17 @@ class MockBoardConfig:
     seq_log: str = ""              # file of the sequence numbers of the commands started
     faults: FaultSpec = FaultSpec()
     machine: Machine = Machine()   # the trace is in pen coordinates: pen mm * steps_per_mm
+    # Limit switches at the -X and -Y ends: each closes at and beyond this motor position (steps from
+    # where the board was powered on); None: a machine without them.
+    switches: Optional[Tuple[int, int]] = None
 
 
 class MockBoard:
     def __init__(self, config: MockBoardConfig, core: Optional[FirmwareCore] = None) -> None:
         self.config = config
         self.core = core or FirmwareCore(find_library(z_axis=config.machine.z_axis))
+        self._carriage = (0, 0)        # motor steps from the power-on place, counted from the pulses
+        self._seen = self.core.position
         self._master = self._slave = -1
         self.port_path = ""
         self._open_pty()
@@ -251,6 +256,7 @@ class MockBoard:
             if self._tx_blocked():
                 return
             self.core.poll()
+            self._switches(stepped=False)
             out = self.core.transmitted()
             if out:
                 self.tx.push(out, t)
@@ -318,8 +324,21 @@ class MockBoard:
             self._trace_dirty = False
             self._trace_flushed_at = now
 
+    def _switches(self, stepped: bool = True) -> None:
+        """The limit switches where the carriage is, before the next pulse.  The carriage's place is
+        counted from the pulses (`stepped`), not read from the board's position, which an `H` moves."""
+        if self.config.switches is None:
+            return
+        x, y = self.core.position
+        if stepped:
+            self._carriage = (self._carriage[0] + x - self._seen[0], self._carriage[1] + y - self._seen[1])
+        self._seen = (x, y)
+        sx, sy = self.config.switches
+        self.core.set_switches(self._carriage[0] <= sx, self._carriage[1] <= sy)
+
     def _run_steps(self, now: float) -> None:
         core = self.core
+        self._switches(stepped=False)
         self._flush_trace(now)
         if not core.timer_running():
             self.board_time = now
@@ -339,6 +358,7 @@ class MockBoard:
             budget -= 1
             if core.tick():
                 self.steps += 1
+                self._switches()
                 if self._trace:
                     x, y = core.position
                     z = "" if not core.has_z else f",{core.position_z}"
