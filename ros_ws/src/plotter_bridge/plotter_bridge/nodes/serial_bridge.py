@@ -293,7 +293,7 @@ class SerialBridge(Node):
     def _on_goal(self, goal) -> GoalResponse:
         why = validate_goal(list(goal.commands), list(goal.lines))
         if why is None and not self._reserve():
-            why = "another job or the homing cycle is running (the board takes one job at a time)"
+            why = "another job is running, or the homing cycle (the board takes one job at a time)"
         if why:
             self.get_logger().warn(f"stream_commands goal rejected: {why}")
             return GoalResponse.REJECT
