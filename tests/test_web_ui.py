@@ -220,6 +220,9 @@ def test_cancel_stops_the_job_and_set_origin_zeroes_the_position(page):
     assert stopped[-1][1] < 179 * STEPS_PER_MM or stopped[-1][2] < 41 * STEPS_PER_MM
     page.driver.find_element("id", "set-origin").click()
     wait_until(lambda: (text(page.driver, "x"), text(page.driver, "y")) == ("0.000", "0.000"), 15, "the new origin")
+    # Home, on a machine the bridge is not told has its limit switches: refused, saying how to turn it on.
+    page.driver.find_element("id", "home").click()
+    wait_until(lambda: "homing is off: set homing:=true" in text(page.driver, "message"), 15, "the homing refusal")
 
 
 def test_jog_moves_the_pen_while_idle_and_never_out_of_the_area(page):

@@ -10,7 +10,7 @@ and a small JSON API; what each call does is the Backend's (the ROS node).
     POST /api/run          {"id"}: run a checked job
     POST /api/draw         {"shape", "x", "y", "size", ...}: a ShapeGoal
     POST /api/jog          {"dx", "dy"} mm, pen up, while idle
-    POST /api/button/<b>   hold, resume, cancel, estop, reset, set_origin
+    POST /api/button/<b>   hold, resume, cancel, estop, reset, set_origin, home
 
 Refusals answer 409 (busy, not connected) or 400 (bad input) with
 {"error": text}; the page shows the text and nothing moves.
@@ -42,7 +42,7 @@ from .jobs import Checked
 STATIC = Path(__file__).resolve().parent / "static"
 COOKIE = "plotter_token"
 CHECKED_KEPT = 16
-BUTTONS = ("hold", "resume", "cancel", "estop", "reset", "set_origin")
+BUTTONS = ("hold", "resume", "cancel", "estop", "reset", "set_origin", "home")
 
 
 class Refused(Exception):

@@ -6,7 +6,7 @@
 It is a client of whatever plotter runs in its namespace (default
 /plotter): it shows `state`, `ink` and `planned_path` live, sends jobs as
 `run_program` goals (files, jog moves) and `draw` goals (shapes), and calls
-the bridge's services (hold, resume, estop, reset, set_origin).  One job
+the bridge's services (hold, resume, estop, reset, set_origin, home).  One job
 from the page at a time: a new one while it runs, or while the board is
 busy, disconnected or in alarm, is refused with the reason and nothing
 moves.  The server (app.py) runs on a thread of its own; it is bound to
@@ -37,7 +37,9 @@ from .jobs import Checked, check_program, check_upload, jog_program
 
 SERVER_WAIT_S = 5.0      # s a request waits for an action server it has not seen yet
 STATE_PERIOD = 0.1       # s: the page gets the board's state at most this often
-SERVICES = {"hold": "hold", "resume": "resume", "estop": "estop", "reset": "reset", "set_origin": "set_origin"}
+SERVICES = {"hold": "hold", "resume": "resume", "estop": "estop", "reset": "reset", "set_origin": "set_origin",
+            "home": "home"}
+SERVICE_WAIT_S = {"home": 600.0}     # s a button's service may take: the homing cycle runs over the table
 
 SPECS = (
     ParamSpec("host", "127.0.0.1", "address the page is served on; anything but this machine's loopback "
@@ -213,7 +215,8 @@ class WebUi(Node):
         client = self._triggers[name]
         if not client.service_is_ready():
             raise Refused(f"{self.get_namespace()}/{SERVICES[name]} does not answer: is serial_bridge running?")
-        response = await asyncio.wait_for(_wrap(client.call_async(Trigger.Request())), 10.0)
+        response = await asyncio.wait_for(_wrap(client.call_async(Trigger.Request())),
+                                          SERVICE_WAIT_S.get(name, 10.0))
         if not response.success:
             raise Refused(f"{name}: {response.message}")
         return f"{name}: {response.message}"

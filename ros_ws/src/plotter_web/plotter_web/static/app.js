@@ -180,7 +180,7 @@ $("file").addEventListener("change", () => check().catch(() => {}));
 $("check").addEventListener("click", () => check().catch(() => {}));
 $("run").addEventListener("click", () => click("api/run", { id: checkedId }).catch(() => {}));
 for (const [id, name] of [["hold", "hold"], ["resume", "resume"], ["cancel", "cancel"], ["estop", "estop"],
-                          ["reset", "reset"], ["set-origin", "set_origin"]]) {
+                          ["reset", "reset"], ["set-origin", "set_origin"], ["home", "home"]]) {
   $(id).addEventListener("click", () => click(`api/button/${name}`).catch(() => {}));
 }
 for (const b of document.querySelectorAll(".jog")) {
