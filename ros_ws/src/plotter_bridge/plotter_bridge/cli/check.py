@@ -71,6 +71,9 @@ def _configure_check(p: argparse.ArgumentParser) -> None:
                    help="work area in mm, as plotter stream takes it (instead of --x-min ... --y-max)")
     p.add_argument("--no-limits", action="store_true",
                    help="do not check the moves against the work area")
+    p.add_argument("--fit-arcs", type=float, metavar="MM", default=None,
+                   help="show the moves with each run of drawn chords that lies on a circle within MM as one arc "
+                        "(gcode/arcfit.py; the streamer does not fit arcs yet)")
     dialect_args(p)
 
 
@@ -231,6 +234,17 @@ def run_check(args: argparse.Namespace, out: TextIO = None, err: TextIO = None) 
                 out.write(json.dumps(_message_record(line)) + "\n")
         return EXIT_BAD_PROGRAM
     items = program.items
+    fitted = ""
+    if args.fit_arcs is not None:
+        from plotter_bridge.gcode.arcfit import FitConfig, fit_arcs
+        try:
+            before = sum(isinstance(i, Move) for i in items)
+            items = fit_arcs(items, FitConfig(tolerance=args.fit_arcs, area=area))
+        except ValueError as exc:
+            err.write(f"--fit-arcs: {exc}\n")
+            return EXIT_BAD_PROGRAM
+        fitted = f"; with arcs fitted within {args.fit_arcs:g} mm, {before} moves became " \
+                 f"{sum(isinstance(i, Move) for i in items)}"
     for text in listing(args.file, [], program.notes):
         err.write(text + "\n")
     if args.json:
@@ -241,7 +255,7 @@ def run_check(args: argparse.Namespace, out: TextIO = None, err: TextIO = None) 
             out.write(json.dumps(record) + "\n")
         return EXIT_OK
     _print_table(items, args.steps_per_mm, out, args.z_steps_per_mm)
-    out.write(_summary(args.file, items, len(program.notes)) + "\n")
+    out.write(_summary(args.file, items, len(program.notes)) + fitted + "\n")
     return EXIT_OK
 
 

@@ -1,0 +1,168 @@
+"""Runs of chords as arcs (gcode/arcfit.py): the fitted path keeps the chords'
+ends and stays within the tolerance of them both ways, on circles, on
+random curves and on the generators' own output; the awkward runs stay as
+they were."""
+from __future__ import annotations
+
+import math
+import random
+import sys
+from pathlib import Path
+from typing import List, Tuple
+
+import pytest
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+import gcode_testlib as lib  # noqa: E402  (puts plotter_bridge on the path)
+
+from plotter_bridge.gcode.arcfit import FitConfig, fit_arcs  # noqa: E402
+from plotter_bridge.gcode.dialect import GCodeOptions  # noqa: E402
+from plotter_bridge.gcode.geometry import arc_extreme_points  # noqa: E402
+from plotter_bridge.gcode.limits import WorkArea  # noqa: E402
+from plotter_bridge.gcode.parser import decode_program, moves_of, parse_program  # noqa: E402
+from plotter_bridge.gcode.types import Move  # noqa: E402
+
+TOL = 0.02
+DATA = Path(__file__).resolve().parent / "data"
+
+
+def chords(points: List[Tuple[float, float]], feed: float = 1000.0) -> List[Move]:
+    return [Move(k + 1, "line", a[0], a[1], b[0], b[1], feed, "down")
+            for k, (a, b) in enumerate(zip(points, points[1:]))]
+
+
+def arc_points(cx, cy, r, a0, a1, n):
+    return [(cx + r * math.cos(a0 + (a1 - a0) * k / n), cy + r * math.sin(a0 + (a1 - a0) * k / n))
+            for k in range(n + 1)]
+
+
+def within(fitted: List[Move], original: List[Move], tol: float) -> float:
+    """The farthest either path strays from the other (sampled every 0.01 mm)."""
+    worst = 0.0
+    for a, b in ((fitted, original), (original, fitted)):
+        index = lib.MoveIndex(b, reach=1.0)
+        for m in a:
+            for p in lib.move_points(m, 0.01):
+                worst = max(worst, index.distance(p))
+    return worst
+
+
+def ends(moves: List[Move]) -> List[Tuple[float, float]]:
+    return [(moves[0].sx, moves[0].sy)] + [(m.x, m.y) for m in moves]
+
+
+@pytest.mark.parametrize("r, chord, sweep, direction", [
+    (5.0, 0.5, 90, 1), (40.0, 1.0, 200, -1), (120.0, 2.0, 60, 1), (0.8, 0.1, 300, -1)])
+def test_chords_of_a_circle_become_one_arc(r, chord, sweep, direction):
+    n = max(3, math.ceil(r * math.radians(sweep) / chord))
+    pts = arc_points(10.0, 20.0, r, 0.3, 0.3 + direction * math.radians(sweep), n)
+    original = chords(pts)
+    fitted = fit_arcs(original, FitConfig(tolerance=TOL))
+    assert len(fitted) == 1 and fitted[0].kind == "arc" and fitted[0].cw == (direction < 0)
+    assert (fitted[0].sx, fitted[0].sy, fitted[0].x, fitted[0].y) == (*pts[0], *pts[-1])
+    assert within(fitted, original, TOL) <= TOL + 1e-6
+
+
+def test_a_closed_run_is_a_full_circle():
+    pts = arc_points(50.0, 50.0, 10.0, 0.0, 2 * math.pi, 72)
+    pts[-1] = pts[0]
+    fitted = fit_arcs(chords(pts), FitConfig(tolerance=TOL))
+    assert len(fitted) == 1 and fitted[0].is_full_circle
+
+
+def test_chords_of_uneven_length_on_a_circle():
+    rng = random.Random(3)
+    angles = sorted(rng.uniform(0, 2.5) for _ in range(40))
+    pts = [(5 * math.cos(a), 5 * math.sin(a)) for a in angles]
+    original = chords(pts)
+    fitted = fit_arcs(original, FitConfig(tolerance=TOL))
+    assert len(fitted) == 1 and within(fitted, original, TOL) <= TOL + 1e-6
+
+
+def test_what_stays_lines():
+    straight = chords([(k * 1.0, 0.0005 * (k % 2)) for k in range(20)])        # nearly straight: no circle fits
+    assert all(m.kind == "line" for m in fit_arcs(straight))
+    tiny = chords(arc_points(0, 0, 0.02, 0, 3, 12))                          # tighter than min_radius
+    assert all(m.kind == "line" for m in fit_arcs(tiny))
+    two = chords([(0, 0), (1, 1), (2, 0)])                                    # fewer chords than min_moves
+    assert fit_arcs(two) == two
+
+
+def test_an_inflection_is_never_one_arc():
+    first = arc_points(0, 10, 10, -math.pi / 2, 0, 20)                       # counter-clockwise up to (10, 10)
+    second = arc_points(20, 10, 10, math.pi, math.pi / 2, 20)[1:]            # then clockwise
+    original = chords(first + second)
+    fitted = fit_arcs(original, FitConfig(tolerance=TOL))
+    arcs = [m for m in fitted if m.kind == "arc"]
+    assert [m.cw for m in arcs] == [False, True]
+    assert ends(fitted)[0] == ends(original)[0] and ends(fitted)[-1] == ends(original)[-1]
+    assert within(fitted, original, TOL) <= TOL + 1e-6
+
+
+def test_an_arc_that_would_leave_the_work_area_stays_chords():
+    # A half circle of 31 chords, no vertex at its top: the chords reach Y 4.9936, the arc Y 5.
+    original = chords(arc_points(100.0, 0.0, 5.0, 0.0, math.pi, 31))
+    assert len(fit_arcs(original, FitConfig(tolerance=TOL, area=WorkArea(0, 200, -10, 200)))) == 1
+    edge = WorkArea(0, 200, -10, 4.997)
+    assert all(edge.contains(m.x, m.y) for m in original)
+    fitted = fit_arcs(original, FitConfig(tolerance=TOL, area=edge))
+    assert len(fitted) > 1 and within(fitted, original, TOL) <= TOL + 1e-6       # arcs up to the top, no further
+    for m in fitted:
+        if m.kind == "arc":
+            assert all(edge.contains(x, y) for x, y in arc_extreme_points((m.sx, m.sy), (m.x, m.y), (m.cx, m.cy), m.cw))
+
+
+def test_travel_pen_changes_and_feeds_end_a_run():
+    a = chords(arc_points(0, 0, 10, 0, 1, 10), feed=1000.0)
+    b = chords(arc_points(0, 0, 10, 1, 2, 10), feed=2000.0)
+    fitted = fit_arcs(a + b)
+    assert [m.feed for m in fitted if m.kind == "arc"] == [1000.0, 2000.0]
+    up = [Move(99, "line", m.sx, m.sy, m.x, m.y, m.feed, "up") for m in a]
+    assert fit_arcs(up) == up
+
+
+@pytest.mark.parametrize("seed", range(12))
+def test_random_curves_stay_within_the_tolerance(seed):
+    rng = random.Random(seed)
+    p = [(rng.uniform(0, 100), rng.uniform(0, 100)) for _ in range(4)]
+    n = rng.randint(40, 300)
+    pts = []
+    for k in range(n + 1):                                                  # a cubic Bezier as n chords
+        t = k / n
+        u = 1 - t
+        pts.append(tuple(u ** 3 * a + 3 * u * u * t * b + 3 * u * t * t * c + t ** 3 * d
+                         for a, b, c, d in zip(*p)))
+    original = chords(pts)
+    fitted = fit_arcs(original, FitConfig(tolerance=TOL))
+    assert ends(fitted)[0] == ends(original)[0] and ends(fitted)[-1] == ends(original)[-1]
+    assert within(fitted, original, TOL) <= TOL + 1e-6
+
+
+@pytest.mark.parametrize("name, fewer", [("corpus/generated/curves.svg2gcode-grbl.gcode", False),
+                                         ("real/lightburn/example_2_circle.gcode", False),   # box joints
+                                         ("real/grbl-plotter/lastProcessed.nc", True),
+                                         ("real/jscut/jscut-outside.gcode", False)])
+def test_programs_of_the_tools_fewer_moves_same_drawing(name, fewer):
+    path = DATA / name
+    items = parse_program(decode_program(path.read_bytes()), options=GCodeOptions("grbl")).items
+    original = moves_of(items)
+    fitted = moves_of(fit_arcs(items, FitConfig(tolerance=TOL)))
+    assert len(fitted) < len(original) if fewer else len(fitted) <= len(original)
+    drawn = [m for m in original if m.pen == "down" and not m.rapid]
+    assert within([m for m in fitted if m.pen == "down" and not m.rapid], drawn, TOL) <= TOL + 1e-6
+    assert [(m.x, m.y) for m in fitted if m.rapid] == [(m.x, m.y) for m in original if m.rapid]
+
+
+def test_plotter_check_shows_the_fitted_moves():
+    import contextlib
+    import io
+    from plotter_bridge.cli import main as cli
+    out = io.StringIO()
+    with contextlib.redirect_stdout(out), contextlib.redirect_stderr(io.StringIO()):
+        assert cli.main(["check", str(DATA / "real" / "grbl-plotter" / "lastProcessed.nc"), "--dialect", "grbl",
+                         "--fit-arcs", "0.02"]) == 0
+    summary = out.getvalue().splitlines()[-1]
+    assert "arcs fitted within 0.02 mm, 363 moves became 75" in summary and "12 arcs" in summary
+    with contextlib.redirect_stdout(io.StringIO()), contextlib.redirect_stderr(io.StringIO()):
+        assert cli.main(["check", str(DATA / "real" / "grbl-plotter" / "lastProcessed.nc"), "--dialect", "grbl",
+                         "--fit-arcs", "-1"]) == 2
