@@ -11,10 +11,12 @@ more is drawn.
 """
 from __future__ import annotations
 
+import contextlib
 import os
+import signal
 import threading
 from dataclasses import dataclass
-from typing import Callable, Optional
+from typing import Callable, Iterator, Optional
 
 WAIT_S = 5.0           # how long a server may take to answer before it counts as missing
 CANCEL_WAIT_S = 15.0   # how long a cancelled goal may take to end
@@ -85,17 +87,18 @@ class GraphClient:
         if not handle.accepted:
             return GoalOutcome("rejected")
         result = handle.get_result_async()
-        try:
-            while not _wait(result, 0.2):
-                if not self._context.ok():
-                    # rclpy's own Ctrl-C handling shut the context down before Python raised
-                    # KeyboardInterrupt here: nothing can arrive any more, so end as Ctrl-C does.
-                    raise KeyboardInterrupt
-        except KeyboardInterrupt:
-            if self._context.ok():
-                handle.cancel_goal_async()
-                _wait(result, CANCEL_WAIT_S)
-            raise
+        with _ctrl_c() as interrupted:
+            try:
+                while not _wait(result, 0.2):
+                    # rclpy's own Ctrl-C handling may shut the context down first: nothing can
+                    # arrive any more, so end as Ctrl-C does.
+                    if interrupted.is_set() or not self._context.ok():
+                        raise KeyboardInterrupt
+            except KeyboardInterrupt:
+                if self._context.ok():
+                    handle.cancel_goal_async()
+                    _wait(result, CANCEL_WAIT_S)
+                raise
         wrapped = result.result()
         status = {GoalStatus.STATUS_SUCCEEDED: "succeeded", GoalStatus.STATUS_CANCELED: "canceled"}.get(
             wrapped.status, "aborted")
@@ -140,6 +143,22 @@ class GraphClient:
 
     def __exit__(self, *exc) -> None:
         self.close()
+
+
+@contextlib.contextmanager
+def _ctrl_c() -> Iterator[threading.Event]:
+    """While a goal runs, Ctrl-C sets the event instead of raising KeyboardInterrupt wherever the main
+    thread happens to be (inside rclpy's future, holding its lock, the cancel that follows would wait on
+    that lock for ever); the wait loop sees the event within 0.2 s."""
+    event = threading.Event()
+    if threading.current_thread() is not threading.main_thread():
+        yield event
+        return
+    previous = signal.signal(signal.SIGINT, lambda *_: event.set())
+    try:
+        yield event
+    finally:
+        signal.signal(signal.SIGINT, previous)
 
 
 def _wait(future, timeout: Optional[float]) -> bool:
