@@ -166,3 +166,48 @@ def test_plotter_check_shows_the_fitted_moves():
     with contextlib.redirect_stdout(io.StringIO()), contextlib.redirect_stderr(io.StringIO()):
         assert cli.main(["check", str(DATA / "real" / "grbl-plotter" / "lastProcessed.nc"), "--dialect", "grbl",
                          "--fit-arcs", "-1"]) == 2
+
+
+def circle_program(chord: float = 0.5, r: float = 15.0, feed: float = 3000.0) -> str:
+    n = math.ceil(2 * math.pi * r / chord)
+    pts = arc_points(100.0, 100.0, r, 0.0, 2 * math.pi, n)
+    lines = [f"G1 X{x:.4f} Y{y:.4f}" for x, y in pts[1:]]
+    return f"G21 G90\nG0 X{pts[0][0]:.4f} Y{pts[0][1]:.4f}\nM3\nF{feed:g}\n" + "\n".join(lines) + "\nM5\nM2\n"
+
+
+def test_the_streamer_sends_fewer_commands_and_the_core_steps_along_the_chords():
+    """compile_program with fit_arcs: the board commands of a circle of 189 chords are a handful, and
+    every step the firmware core takes for them is on the chords' path (within the tolerance and a step)."""
+    from plotter_bridge.motion.compiler import StreamerConfig, compile_program
+    from plotter_bridge.sim.expected import program_steps
+    text = circle_program()
+    plain, fitted = StreamerConfig(), StreamerConfig(fit_arcs=TOL)
+    drawn = lambda cmds: [c for c in cmds if c.verb in ("L", "C", "A")]  # noqa: E731
+    assert len(drawn(compile_program(text, fitted))) * 20 < len(drawn(compile_program(text, plain)))
+    index = lib.MoveIndex(moves_of(parse_program(text).items), reach=1.0)    # the chords and the travel to them
+    steps = set(program_steps(text, fitted))
+    worst = max(index.distance((x / 80.0, y / 80.0)) for x, y in steps)
+    assert worst <= TOL + 0.5 / 80.0 * math.sqrt(2) + 1e-9, worst
+
+
+@pytest.mark.ros
+def test_plotter_stream_fit_arcs_on_the_mock_board(tmp_path):
+    import os
+    import subprocess
+    from node_processes import new_domain
+    from ros_graph import read_trace
+    plotter = Path(__file__).resolve().parent.parent / ".venv" / "bin" / "plotter"
+    program = tmp_path / "circle.gcode"
+    program.write_text(circle_program())
+    started = {}
+    for fit in ("", "0.02"):
+        trace, seq = tmp_path / f"trace{fit}.csv", tmp_path / f"seq{fit}.csv"
+        r = subprocess.run([str(plotter), "stream", str(program), "--mock", "--quiet", "--trace", str(trace),
+                            "--seq-log", str(seq), *(["--fit-arcs", fit] if fit else [])], capture_output=True,
+                           text=True, timeout=600, env=dict(os.environ, ROS_DOMAIN_ID=str(new_domain())))
+        assert r.returncode == 0, r.stderr
+        started[fit] = seq.read_text().count("\n") - 1
+        index = lib.MoveIndex(moves_of(parse_program(program.read_text()).items), reach=1.0)
+        worst = max(index.distance((x / 80.0, y / 80.0)) for _, x, y in read_trace(trace))
+        assert worst <= TOL + 0.5 / 80.0 * math.sqrt(2) + 1e-9, worst
+    assert started["0.02"] * 20 < started[""], started

@@ -37,7 +37,7 @@ HANGING_AREA = (0.0, 800.0, 0.0, 1000.0)   # seed 003's board below its pulleys,
 
 EXIT_INTERRUPTED = 130       # Ctrl-C: the job was cancelled
 # Options of a graph of the command's own: a running plotter has its settings in its nodes' parameters.
-LOCAL_ONLY = ("baud", "steps_per_mm", "trace", "faults", "seq_log", "journal", "area", "z_axis",
+LOCAL_ONLY = ("baud", "steps_per_mm", "trace", "faults", "seq_log", "journal", "area", "z_axis", "fit_arcs",
               "z_steps_per_mm", "z_range")
 
 
@@ -76,6 +76,9 @@ def connection_args(p: argparse.ArgumentParser) -> None:
                    help=f"with --z-axis: motor steps per mm of Z (default {DEFAULT_Z_STEPS_PER_MM:g})")
     p.add_argument("--z-range", type=float, nargs=2, metavar=("Z_MIN", "Z_MAX"), default=None,
                    help="with --z-axis: travel of Z in mm from the power-on origin (default -50 50)")
+    p.add_argument("--fit-arcs", type=float, default=None, metavar="MM",
+                   help="with --port/--mock: runs of drawn chords that lie on a circle within MM go to the board as "
+                        "one arc each (the streamer's fit_arcs; default off)")
     p.add_argument("--quiet", action="store_true", help="no progress bar")
     p.add_argument("--svg", metavar="OUT.svg", default="",
                    help="write a picture of what the board drew, the programmed path underneath")
@@ -96,6 +99,8 @@ def _graph_options(args: argparse.Namespace):
         raise ValueError("--z-steps-per-mm must be a positive number")
     if args.z_range and not args.z_range[0] < args.z_range[1]:
         raise ValueError("--z-range: Z_MIN must be below Z_MAX")
+    if args.fit_arcs is not None and not (math.isfinite(args.fit_arcs) and 0 < args.fit_arcs <= 1.0):
+        raise ValueError("--fit-arcs: a tolerance above 0 and at most 1 mm")
     return GraphOptions(gcode=gcode_options(args), port=args.port or "", mock=args.mock,
                         baud=args.baud or DEFAULT_BAUD,
                         steps_per_mm=args.steps_per_mm or 80.0, trace=args.trace,
@@ -103,7 +108,8 @@ def _graph_options(args: argparse.Namespace):
                         journal_dir=args.journal, machine=args.machine,
                         area=tuple(args.area) if args.area else HANGING_AREA if args.machine == "hanging" else None,
                         z_axis=args.z_axis, z_steps_per_mm=z_steps_per_mm,
-                        z_range=tuple(args.z_range) if args.z_range else None)
+                        z_range=tuple(args.z_range) if args.z_range else None,
+                        fit_arcs=args.fit_arcs or 0.0)
 
 
 def reliability_report(graph) -> str:
