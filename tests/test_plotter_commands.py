@@ -44,7 +44,7 @@ def test_commands_of_other_packages_join_the_table_and_a_broken_one_is_reported(
 def test_without_extensions_the_own_commands_remain(monkeypatch):
     monkeypatch.setattr(cli, "entry_points", lambda group: [])
     assert list(cli.all_commands()) == ["check", "stream", "resume", "jobs", "watch", "state", "hold", "estop",
-                                        "reset", "set-origin"]
+                                        "reset", "set-origin", "home"]
 
 
 @pytest.mark.ros
