@@ -206,13 +206,19 @@ def test_state_and_the_buttons(graph, tmp_path):
 def test_ctrl_c_cancels_the_job_and_the_board_stops_there(graph, tmp_path):
     program = tmp_path / "slow.gcode"
     program.write_text("G21 G90\nG0 X10 Y150\nM3\n" + "G1 X150 Y150 F900\nG1 X10 Y151\n" * 4 + "M5\nM2\n")
+    # PYTHONFAULTHANDLER: if it outlives its Ctrl-C, SIGABRT prints where each of its threads is.
     job = subprocess.Popen([PLOTTER, "stream", str(program)], stdout=subprocess.PIPE, stderr=subprocess.PIPE,
-                           text=True, env=graph.env)
+                           text=True, env=dict(graph.env, PYTHONFAULTHANDLER="1"))
     wait_until(lambda: graph.states[-1].state_name == "RUNNING", 30, "RUNNING")
     time.sleep(1.5)
     job.send_signal(signal.SIGINT)
     t_cancel = time.monotonic()
-    out, err = job.communicate(timeout=60)
+    try:
+        out, err = job.communicate(timeout=60)
+    except subprocess.TimeoutExpired:
+        job.send_signal(signal.SIGABRT)
+        out, err = job.communicate(timeout=30)
+        pytest.fail(f"plotter stream did not end within 60 s of Ctrl-C; its threads:\n{err[-6000:]}")
     assert job.returncode == 130 and "canceled" in err, err
     wait_until(lambda: idle(graph), 20, "IDLE after the cancel")
     stopped = read_trace(graph.trace)
