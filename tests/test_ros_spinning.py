@@ -44,3 +44,37 @@ def test_stopping_while_callbacks_run_leaves_no_error_behind(capfd):
     assert not failed, [f.exc_value for f in failed]
     err = capfd.readouterr().err
     assert "never retrieved" not in err and "Destroyable" not in err, err
+
+
+def test_a_shutdown_between_the_check_and_the_wait_ends_spinning_cleanly(monkeypatch):
+    """Ctrl-C's handler can shut the context down after a spin step checked it and before the
+    step builds its wait set: rcl then fails "the given context is not valid".  run_node and
+    SpinThread take that as the end it is, not as an error (seen: a node's Ctrl-C exiting 1)."""
+    import rclpy
+    from rclpy._rclpy_pybind11 import RCLError
+    from rclpy.context import Context
+    from rclpy.executors import MultiThreadedExecutor
+    from plotter_bridge.nodes import main as node_main
+    from plotter_bridge.nodes.spinning import SpinThread
+
+    def shut_then_fail(self, timeout_sec=None):
+        rclpy.try_shutdown(context=self.context)
+        raise RCLError("failed to initialize wait set: the given context is not valid")
+
+    monkeypatch.setattr(MultiThreadedExecutor, "spin_once", shut_then_fail)
+    domain = str(new_domain())
+    assert node_main.run_node(lambda: rclpy.create_node("racing"), "racing",
+                              ["--ros-args", "-p", "use_sim_time:=false", "-r", f"__ns:=/race{domain}"]) == 0
+    failed = []
+    hook, threading.excepthook = threading.excepthook, failed.append
+    try:
+        context = Context()
+        rclpy.init(context=context, domain_id=int(domain))
+        executor = MultiThreadedExecutor(num_threads=1, context=context)
+        spin = SpinThread(executor)
+        spin._thread.join(5)
+        assert not spin._thread.is_alive() and not failed
+        spin.stop()
+    finally:
+        threading.excepthook = hook
+        rclpy.try_shutdown(context=context)

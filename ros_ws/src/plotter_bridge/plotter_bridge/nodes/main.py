@@ -7,6 +7,7 @@ from __future__ import annotations
 from typing import Callable, List, Optional
 
 import rclpy
+from rclpy._rclpy_pybind11 import RCLError
 from rclpy.exceptions import ParameterException
 from rclpy.executors import ExternalShutdownException, MultiThreadedExecutor
 from rclpy.node import Node
@@ -42,7 +43,14 @@ def run_node(make: Callable[[], Node], name: str, args: Optional[List[str]] = No
         # a node beside CPU-bound processes once sat 15 s in that wait after SIGINT.  Coming back to
         # Python every SPIN_STEP_S lets the KeyboardInterrupt Python has pending be raised here.
         while executor.context.ok():
-            executor.spin_once(timeout_sec=SPIN_STEP_S)
+            try:
+                executor.spin_once(timeout_sec=SPIN_STEP_S)
+            except RCLError:
+                # rclpy's Ctrl-C handler shut the context down between the check above and the
+                # wait set's creation ("the given context is not valid"): the same end as Ctrl-C.
+                if executor.context.ok():
+                    raise
+                break
     except (KeyboardInterrupt, ExternalShutdownException):
         pass
     except (ValueError, ParameterException) as exc:

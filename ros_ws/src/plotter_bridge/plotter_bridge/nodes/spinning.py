@@ -17,6 +17,7 @@ from __future__ import annotations
 import threading
 import time
 
+from rclpy._rclpy_pybind11 import RCLError
 from rclpy.executors import Executor
 
 STEP_S = 0.1          # s a spin step waits for work: how soon the thread sees stop()
@@ -32,7 +33,13 @@ class SpinThread:
 
     def _run(self) -> None:
         while not self._stop.is_set() and self.executor.context.ok():
-            self.executor.spin_once(timeout_sec=STEP_S)
+            try:
+                self.executor.spin_once(timeout_sec=STEP_S)
+            except RCLError:
+                # The context was shut down (Ctrl-C) between the check and the wait set's creation.
+                if self.executor.context.ok():
+                    raise
+                return
 
     def stop(self, timeout: float = 5.0) -> None:
         """Stop spinning and shut the executor down; the nodes stay, for
