@@ -176,9 +176,7 @@ def _split_words(words: List[Word], line: int, st: _State):
     the words the dialect accepts without effect become notes."""
     rules = st.options.rules
     # The G codes first: "G41 D1" is refused for G41 (what it asks), not for its D word.
-    for w in words:
-        if w.letter == "G":
-            _g_group(w.value, line, st)
+    g_codes = [_g_group(w.value, line, st) for w in words if w.letter == "G"]
     unknown = next((w for w in words if not w.known), None)
     if unknown is not None:
         raise GCodeError(line, f"unsupported word letter '{unknown.letter}'"
@@ -194,7 +192,7 @@ def _split_words(words: List[Word], line: int, st: _State):
                 raise GCodeError(line, "N word must be a whole number")
             n = int(w.value)
         elif w.letter == "G":
-            code, group = _g_group(w.value, line, st)
+            code, group = g_codes.pop(0)
             if code in rules.noted_g:
                 st.notes.append(Note(line, rules.noted_g[code]))
             if group in groups:

@@ -7,12 +7,11 @@ from __future__ import annotations
 from typing import Callable, List, Optional
 
 import rclpy
-from rclpy._rclpy_pybind11 import RCLError
 from rclpy.exceptions import ParameterException
 from rclpy.executors import ExternalShutdownException, MultiThreadedExecutor
 from rclpy.node import Node
 
-from .spinning import shutdown_after_callbacks
+from .spinning import shutdown_after_callbacks, spin_step
 from .teardown import teardown_watchdog
 
 EXIT_OK = 0
@@ -42,15 +41,8 @@ def run_node(make: Callable[[], Node], name: str, args: Optional[List[str]] = No
         # In steps, not one spin(): rclpy wakes a waiting spin() on Ctrl-C with a guard condition, and
         # a node beside CPU-bound processes once sat 15 s in that wait after SIGINT.  Coming back to
         # Python every SPIN_STEP_S lets the KeyboardInterrupt Python has pending be raised here.
-        while executor.context.ok():
-            try:
-                executor.spin_once(timeout_sec=SPIN_STEP_S)
-            except RCLError:
-                # rclpy's Ctrl-C handler shut the context down between the check above and the
-                # wait set's creation ("the given context is not valid"): the same end as Ctrl-C.
-                if executor.context.ok():
-                    raise
-                break
+        while spin_step(executor, SPIN_STEP_S):
+            pass
     except (KeyboardInterrupt, ExternalShutdownException):
         pass
     except (ValueError, ParameterException) as exc:

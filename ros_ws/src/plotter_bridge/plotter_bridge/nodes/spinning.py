@@ -32,14 +32,8 @@ class SpinThread:
         self._thread.start()
 
     def _run(self) -> None:
-        while not self._stop.is_set() and self.executor.context.ok():
-            try:
-                self.executor.spin_once(timeout_sec=STEP_S)
-            except RCLError:
-                # The context was shut down (Ctrl-C) between the check and the wait set's creation.
-                if self.executor.context.ok():
-                    raise
-                return
+        while not self._stop.is_set() and spin_step(self.executor, STEP_S):
+            pass
 
     def stop(self, timeout: float = 5.0) -> None:
         """Stop spinning and shut the executor down; the nodes stay, for
@@ -47,6 +41,21 @@ class SpinThread:
         self._stop.set()
         self._thread.join(timeout)
         shutdown_after_callbacks(self.executor)
+
+
+def spin_step(executor: Executor, timeout: float) -> bool:
+    """One spin step of at most `timeout` s; False once the context is shut down.  A shutdown
+    (Ctrl-C's handler) between the check and the wait set's creation makes rcl fail "the given
+    context is not valid": the same end, not an error."""
+    if not executor.context.ok():
+        return False
+    try:
+        executor.spin_once(timeout_sec=timeout)
+    except RCLError:
+        if executor.context.ok():
+            raise
+        return False
+    return True
 
 
 def shutdown_after_callbacks(executor: Executor) -> None:
