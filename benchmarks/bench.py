@@ -201,7 +201,8 @@ def sim_link(case: LinkCase) -> LinkRow:
     session = SimSession(baud=case.baud, scale_status=case.status_scaled)
     try:
         prog = polygon_program(case.segments, case.chord, case.feed)
-        config = StreamerConfig(link_baud=case.baud if case.link_cap else 0, link_seq=session.link.next_seq)
+        config = StreamerConfig(link_baud=case.baud if case.link_cap else 0, link_seq=session.link.next_seq,
+                                fit_arcs=False)
         cmds = compile_for(prog, session.position, config=config)
         r = session.stream(cmds)
     finally:

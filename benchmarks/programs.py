@@ -24,7 +24,6 @@ from bound import Item, Move, Wait
 PEN_DELAY_S = 0.150          # the board's $3 at power-on
 
 
-
 @dataclass(frozen=True)
 class Program:
     name: str
@@ -86,9 +85,58 @@ def polygon_program(segments: int, chord_mm: float, feed: float, radius: float =
     return Program(f"{segments} x {chord_mm:g} mm at F{feed:g}", "\n".join(lines) + "\n")
 
 
+def _chords(name: str, points: Sequence[Tuple[float, float]], feed: float) -> Program:
+    x0, y0 = points[0]
+    lines = [f"({name})", "G21 G90", "M5", f"G0 X{x0:.4f} Y{y0:.4f}", "M3"]
+    lines += [f"G1 X{x:.4f} Y{y:.4f} F{feed:g}" for x, y in points[1:]]
+    lines += ["M5", "M2"]
+    return Program(name, "\n".join(lines) + "\n")
+
+
+def _resample(curve, t_end: float, chord_mm: float, samples: int = 200000) -> List[Tuple[float, float]]:
+    """Points along a parametric curve about chord_mm apart (by arc length), both ends kept."""
+    pts = [curve(t_end * k / samples) for k in range(samples + 1)]
+    out, run = [pts[0]], 0.0
+    for a, b in zip(pts, pts[1:]):
+        run += math.dist(a, b)
+        if run >= chord_mm:
+            out.append(b)
+            run = 0.0
+    if out[-1] != pts[-1]:
+        out.append(pts[-1])
+    return out
+
+
+def spirograph_program(chord_mm: float = 1.0, feed: float = 6000.0, centre: Tuple[float, float] = (100.0, 100.0),
+                       big: float = 50.0, small: float = 30.0, pen: float = 20.0) -> Program:
+    """A hypotrochoid (spirograph) as chords of about chord_mm: curvature changing all the way."""
+    cx, cy = centre
+    k = (big - small) / small
+    turns = small / math.gcd(int(big), int(small))
+
+    def curve(t: float) -> Tuple[float, float]:
+        return (cx + (big - small) * math.cos(t) + pen * math.cos(k * t),
+                cy + (big - small) * math.sin(t) - pen * math.sin(k * t))
+    return _chords(f"spirograph, {chord_mm:g} mm chords", _resample(curve, 2 * math.pi * turns, chord_mm), feed)
+
+
+def lissajous_program(chord_mm: float = 1.0, feed: float = 6000.0, centre: Tuple[float, float] = (100.0, 100.0),
+                      a: float = 60.0, b: float = 45.0) -> Program:
+    """A 3:4 Lissajous figure as chords of about chord_mm: inflections and crossings."""
+    cx, cy = centre
+
+    def curve(t: float) -> Tuple[float, float]:
+        return cx + a * math.sin(3 * t + math.pi / 4), cy + b * math.sin(4 * t)
+    return _chords(f"Lissajous 3:4, {chord_mm:g} mm chords", _resample(curve, 2 * math.pi, chord_mm), feed)
+
+
+CHORDS = StreamerConfig(fit_arcs=False)
+
+
 def compile_for(program: Program, start_steps: Tuple[int, int], lookahead: bool = True,
-                config: StreamerConfig = StreamerConfig()) -> List[BoardCommand]:
-    """Board commands as gcode_streamer makes them for a pen at start_steps."""
+                config: StreamerConfig = CHORDS) -> List[BoardCommand]:
+    """Board commands as gcode_streamer makes them for a pen at start_steps, with its chords as
+    written (fit_arcs off: the programs here measure the link and the planner)."""
     from dataclasses import replace
     return compile_program(program.gcode, replace(config, lookahead=lookahead), start_steps)
 

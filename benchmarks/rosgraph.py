@@ -180,7 +180,9 @@ class BenchGraph:
         ns = ("-r", "__ns:=/plotter", "--params-file", params_file())
         self.bridge = NodeProcess("plotter_bridge.nodes.serial_bridge", self.domain,
                                   ns + ("-p", f"port:={self.link}", "-p", f"baud:={baud}"))
-        self.streamer = NodeProcess("plotter_bridge.nodes.gcode_streamer", self.domain, ns)
+        # chords as written: these programs measure the link and the planner (benchmarks/arcfit.py: fitting)
+        self.streamer = NodeProcess("plotter_bridge.nodes.gcode_streamer", self.domain,
+                                    ns + ("-p", "fit_arcs:=false"))
         self.sampler = ProcSampler({"serial_bridge": self.bridge.proc.pid,
                                     "gcode_streamer": self.streamer.proc.pid,
                                     "mock_board": self.mock.pid})
@@ -226,7 +228,8 @@ class BenchGraph:
         start = (self.state.x_steps, self.state.y_steps)
         first_seq = self.state.next_seq
         # As gcode_streamer compiles it: the link cap at the bridge's baud.
-        commands = compile_for(program, start, config=StreamerConfig(link_baud=self.baud, link_seq=first_seq))
+        config = StreamerConfig(link_baud=self.baud, link_seq=first_seq, fit_arcs=False)
+        commands = compile_for(program, start, config=config)
         self.trace.update()
         first_row = len(self.trace.rows)
         first_pos = len(self.positions)

@@ -80,8 +80,13 @@ def test_chords_of_uneven_length_on_a_circle():
 
 
 def test_what_stays_lines():
-    straight = chords([(k * 1.0, 0.0005 * (k % 2)) for k in range(20)])        # nearly straight: no circle fits
-    assert all(m.kind == "line" for m in fit_arcs(straight))
+    straight = chords([(k * 1.0, 0.0005 * (k % 2)) for k in range(20)])        # nearly straight: one line
+    fitted = fit_arcs(straight, FitConfig(tolerance=TOL))
+    assert len(fitted) == 1 and fitted[0].kind == "line" and ends(fitted) == [ends(straight)[0], ends(straight)[-1]]
+    zigzag = chords([(k * 1.0, 0.05 * (k % 2)) for k in range(20)])          # beyond the tolerance: as it was
+    assert fit_arcs(zigzag, FitConfig(tolerance=TOL)) == zigzag
+    back = chords([(0, 0), (5, 0), (3, 0.001), (8, 0)])                        # on a line, but going back
+    assert all(m.kind == "line" for m in fit_arcs(back)) and len(fit_arcs(back)) >= 3
     tiny = chords(arc_points(0, 0, 0.02, 0, 3, 12))                          # tighter than min_radius
     assert all(m.kind == "line" for m in fit_arcs(tiny))
     two = chords([(0, 0), (1, 1), (2, 0)])                                    # fewer chords than min_moves
@@ -181,7 +186,8 @@ def test_the_streamer_sends_fewer_commands_and_the_core_steps_along_the_chords()
     from plotter_bridge.motion.compiler import StreamerConfig, compile_program
     from plotter_bridge.sim.expected import program_steps
     text = circle_program()
-    plain, fitted = StreamerConfig(), StreamerConfig(fit_arcs=TOL)
+    plain, fitted = StreamerConfig(fit_arcs=False), StreamerConfig()
+    assert fitted.fit_arcs and fitted.arc_tolerance == TOL                   # on by default, as the streamer
     drawn = lambda cmds: [c for c in cmds if c.verb in ("L", "C", "A")]  # noqa: E731
     assert len(drawn(compile_program(text, fitted))) * 20 < len(drawn(compile_program(text, plain)))
     index = lib.MoveIndex(moves_of(parse_program(text).items), reach=1.0)    # the chords and the travel to them
@@ -191,7 +197,7 @@ def test_the_streamer_sends_fewer_commands_and_the_core_steps_along_the_chords()
 
 
 @pytest.mark.ros
-def test_plotter_stream_fit_arcs_on_the_mock_board(tmp_path):
+def test_plotter_stream_fits_arcs_unless_told_not_to(tmp_path):
     import os
     import subprocess
     from node_processes import new_domain
@@ -200,14 +206,63 @@ def test_plotter_stream_fit_arcs_on_the_mock_board(tmp_path):
     program = tmp_path / "circle.gcode"
     program.write_text(circle_program())
     started = {}
-    for fit in ("", "0.02"):
+    for fit in ("--no-fit-arcs", ""):
         trace, seq = tmp_path / f"trace{fit}.csv", tmp_path / f"seq{fit}.csv"
         r = subprocess.run([str(plotter), "stream", str(program), "--mock", "--quiet", "--trace", str(trace),
-                            "--seq-log", str(seq), *(["--fit-arcs", fit] if fit else [])], capture_output=True,
+                            "--seq-log", str(seq), *([fit] if fit else [])], capture_output=True,
                            text=True, timeout=600, env=dict(os.environ, ROS_DOMAIN_ID=str(new_domain())))
         assert r.returncode == 0, r.stderr
         started[fit] = seq.read_text().count("\n") - 1
         index = lib.MoveIndex(moves_of(parse_program(program.read_text()).items), reach=1.0)
         worst = max(index.distance((x / 80.0, y / 80.0)) for _, x, y in read_trace(trace))
         assert worst <= TOL + 0.5 / 80.0 * math.sqrt(2) + 1e-9, worst
-    assert started["0.02"] * 20 < started[""], started
+    assert started[""] * 20 < started["--no-fit-arcs"], started
+
+
+def _drawn_chains(moves: List[Move]) -> List[List[Move]]:
+    """The drawn moves in runs that join end to start."""
+    out: List[List[Move]] = []
+    for m in moves:
+        if m.pen != "down" or m.rapid:
+            continue
+        if out and math.dist((out[-1][-1].x, out[-1][-1].y), (m.sx, m.sy)) <= 1e-9:
+            out[-1].append(m)
+        else:
+            out.append([m])
+    return out
+
+
+def _corpus():
+    from real_programs import ACCEPTED
+
+    def options(p) -> GCodeOptions:
+        if p.marlin_pen:
+            return GCodeOptions(p.dialect, marlin_pen_down=p.marlin_pen[0], marlin_pen_up=p.marlin_pen[1])
+        return GCodeOptions(p.dialect)
+    out = [pytest.param(p.path, options(p), id=p.name) for p in ACCEPTED]
+    out += [pytest.param(path, GCodeOptions("grbl" if "grbl" in path.name else "marlin" if "marlin" in path.name
+                                            else "linuxcnc"), id=path.name)
+            for path in sorted((DATA / "corpus" / "generated").glob("*.*")) if path.suffix in (".ngc", ".gcode")]
+    return out
+
+
+@pytest.mark.parametrize("path, options", _corpus())
+def test_every_file_of_the_corpus_keeps_its_drawing(path, options):
+    """Every real and generated program: the fitted drawing is the chords' within the tolerance both
+    ways, each drawn stroke starts and ends where it did, travel is untouched."""
+    items = parse_program(decode_program(path.read_bytes()), options=options).items
+    original = moves_of(items)
+    fitted = moves_of(fit_arcs(items, FitConfig(tolerance=TOL)))
+    assert len(fitted) <= len(original)
+    before, after = _drawn_chains(original), _drawn_chains(fitted)
+    assert [(c[0].sx, c[0].sy, c[-1].x, c[-1].y) for c in after] == \
+        [(c[0].sx, c[0].sy, c[-1].x, c[-1].y) for c in before]
+    for a, b in zip(after, before):
+        k = 0
+        for f in a:                  # each fitted move against the chords it stands for
+            end = next(n for n in range(k, len(b)) if (b[n].x, b[n].y) == (f.x, f.y))
+            if f != b[k] or end != k:
+                assert within([f], b[k:end + 1], TOL) <= TOL + 1e-6, (f, b[k:end + 1])
+            k = end + 1
+        assert k == len(b)
+    assert [(m.x, m.y) for m in fitted if m.rapid] == [(m.x, m.y) for m in original if m.rapid]

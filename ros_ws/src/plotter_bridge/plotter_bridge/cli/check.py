@@ -72,8 +72,9 @@ def _configure_check(p: argparse.ArgumentParser) -> None:
     p.add_argument("--no-limits", action="store_true",
                    help="do not check the moves against the work area")
     p.add_argument("--fit-arcs", type=float, metavar="MM", default=None,
-                   help="show the moves with each run of drawn chords that lies on a circle within MM as one arc "
-                        "(gcode/arcfit.py; the streamer does not fit arcs yet)")
+                   help="show the moves as the streamer sends them: each run of drawn chords that one arc or line "
+                        "holds within MM as that arc or line (gcode/arcfit.py; the streamer fits within 0.02 mm "
+                        "unless its fit_arcs is off)")
     dialect_args(p)
 
 
@@ -237,9 +238,11 @@ def run_check(args: argparse.Namespace, out: TextIO = None, err: TextIO = None) 
     fitted = ""
     if args.fit_arcs is not None:
         from plotter_bridge.gcode.arcfit import FitConfig, fit_arcs
+        from plotter_bridge.gcode.steps import MAX_OFFSET
         try:
             before = sum(isinstance(i, Move) for i in items)
-            items = fit_arcs(items, FitConfig(tolerance=args.fit_arcs, area=area))
+            items = fit_arcs(items, FitConfig(tolerance=args.fit_arcs, area=area,
+                                              max_radius=(MAX_OFFSET - 2) / args.steps_per_mm))
         except ValueError as exc:
             err.write(f"--fit-arcs: {exc}\n")
             return EXIT_BAD_PROGRAM

@@ -37,8 +37,8 @@ HANGING_AREA = (0.0, 800.0, 0.0, 1000.0)   # seed 003's board below its pulleys,
 
 EXIT_INTERRUPTED = 130       # Ctrl-C: the job was cancelled
 # Options of a graph of the command's own: a running plotter has its settings in its nodes' parameters.
-LOCAL_ONLY = ("baud", "steps_per_mm", "trace", "faults", "seq_log", "journal", "area", "z_axis", "fit_arcs",
-              "z_steps_per_mm", "z_range")
+LOCAL_ONLY = ("baud", "steps_per_mm", "trace", "faults", "seq_log", "journal", "area", "z_axis", "no_fit_arcs",
+              "z_steps_per_mm", "z_range", "arc_tolerance")
 
 
 def connection_args(p: argparse.ArgumentParser) -> None:
@@ -76,9 +76,12 @@ def connection_args(p: argparse.ArgumentParser) -> None:
                    help=f"with --z-axis: motor steps per mm of Z (default {DEFAULT_Z_STEPS_PER_MM:g})")
     p.add_argument("--z-range", type=float, nargs=2, metavar=("Z_MIN", "Z_MAX"), default=None,
                    help="with --z-axis: travel of Z in mm from the power-on origin (default -50 50)")
-    p.add_argument("--fit-arcs", type=float, default=None, metavar="MM",
-                   help="with --port/--mock: runs of drawn chords that lie on a circle within MM go to the board as "
-                        "one arc each (the streamer's fit_arcs; default off)")
+    p.add_argument("--no-fit-arcs", action="store_true",
+                   help="with --port/--mock: send drawn chords as they are written (the streamer's fit_arcs off); "
+                        "by default a run of chords that one arc or line holds goes as that arc or line")
+    p.add_argument("--arc-tolerance", type=float, default=None, metavar="MM",
+                   help="with --port/--mock: how far the fitted arcs and lines may stray from the chords "
+                        "(the streamer's arc_tolerance; default 0.02)")
     p.add_argument("--quiet", action="store_true", help="no progress bar")
     p.add_argument("--svg", metavar="OUT.svg", default="",
                    help="write a picture of what the board drew, the programmed path underneath")
@@ -99,8 +102,8 @@ def _graph_options(args: argparse.Namespace):
         raise ValueError("--z-steps-per-mm must be a positive number")
     if args.z_range and not args.z_range[0] < args.z_range[1]:
         raise ValueError("--z-range: Z_MIN must be below Z_MAX")
-    if args.fit_arcs is not None and not (math.isfinite(args.fit_arcs) and 0 < args.fit_arcs <= 1.0):
-        raise ValueError("--fit-arcs: a tolerance above 0 and at most 1 mm")
+    if args.arc_tolerance is not None and not (math.isfinite(args.arc_tolerance) and 0 < args.arc_tolerance <= 1.0):
+        raise ValueError(f"--arc-tolerance {args.arc_tolerance:g}: a tolerance above 0 and at most 1 mm")
     return GraphOptions(gcode=gcode_options(args), port=args.port or "", mock=args.mock,
                         baud=args.baud or DEFAULT_BAUD,
                         steps_per_mm=args.steps_per_mm or 80.0, trace=args.trace,
@@ -109,7 +112,8 @@ def _graph_options(args: argparse.Namespace):
                         area=tuple(args.area) if args.area else HANGING_AREA if args.machine == "hanging" else None,
                         z_axis=args.z_axis, z_steps_per_mm=z_steps_per_mm,
                         z_range=tuple(args.z_range) if args.z_range else None,
-                        fit_arcs=args.fit_arcs or 0.0)
+                        fit_arcs=not args.no_fit_arcs,
+                        arc_tolerance=0.02 if args.arc_tolerance is None else args.arc_tolerance)
 
 
 def reliability_report(graph) -> str:

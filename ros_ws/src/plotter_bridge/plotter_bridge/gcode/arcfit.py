@@ -18,12 +18,15 @@ import math
 from dataclasses import dataclass, replace
 from typing import List, Optional, Sequence, Tuple
 
+import numpy as np
+
 from .geometry import arc_extreme_points
 from .limits import WorkArea
 from .types import PEN_DOWN, Item, Move
 
 Point = Tuple[float, float]
 TWO_PI = 2.0 * math.pi
+LOOK_PAST = 2        # runs that do not fit, in a row, before a longer one is no longer tried
 
 
 @dataclass(frozen=True)
@@ -59,24 +62,6 @@ def _circle(a: Point, b: Point, c: Point) -> Optional[Tuple[Point, float]]:
     return (ax + ux, ay + uy), math.hypot(ux, uy)
 
 
-def _chord_bulge(p: Point, q: Point, centre: Point, r: float) -> float:
-    """How far the circle strays from the chord p-q: r less the centre's distance from the chord
-    where the perpendicular foot lies on it (else the ends say it all)."""
-    dx, dy = q[0] - p[0], q[1] - p[1]
-    length2 = dx * dx + dy * dy
-    if length2 == 0.0:
-        return 0.0
-    t = ((centre[0] - p[0]) * dx + (centre[1] - p[1]) * dy) / length2
-    if not 0.0 < t < 1.0:
-        return 0.0
-    foot = (p[0] + t * dx, p[1] + t * dy)
-    return abs(r - math.hypot(centre[0] - foot[0], centre[1] - foot[1]))
-
-
-def _angle(p: Point, centre: Point) -> float:
-    return math.atan2(p[1] - centre[1], p[0] - centre[0])
-
-
 def fit_run(points: Sequence[Point], config: FitConfig) -> Optional[Tuple[Point, bool]]:
     """The arc through a polyline's points, if one holds all of them within the tolerance:
     (centre, clockwise); None if not."""
@@ -92,29 +77,35 @@ def fit_run(points: Sequence[Point], config: FitConfig) -> Optional[Tuple[Point,
         circle = _circle(points[0], points[n // 2], points[-1])
     if circle is None:
         return None
-    centre, r = circle
+    (cx, cy), r = circle
     if not config.min_radius <= r <= config.max_radius:
         return None
     tol = config.tolerance
-    for p in points:
-        if abs(math.hypot(p[0] - centre[0], p[1] - centre[1]) - r) > tol:
-            return None
+    p = np.asarray(points, dtype=float)
+    dx, dy = p[:, 0] - cx, p[:, 1] - cy
+    if np.any(np.abs(np.hypot(dx, dy) - r) > tol):
+        return None
     # One way round, never back, less than a turn (or exactly one for a closed run).
-    sweep, sign = 0.0, 0.0
-    for p, q in zip(points, points[1:]):
-        step = (_angle(q, centre) - _angle(p, centre) + math.pi) % TWO_PI - math.pi
-        if step == 0.0 or (sign and step * sign < 0):
-            return None
-        sign = sign or math.copysign(1.0, step)
-        sweep += step
-        if _chord_bulge(p, q, centre, r) > tol:
-            return None
+    angles = np.arctan2(dy, dx)
+    steps = (np.diff(angles) + math.pi) % TWO_PI - math.pi
+    if np.any(steps == 0.0) or not (np.all(steps > 0) or np.all(steps < 0)):
+        return None
+    sweep = float(np.sum(steps))
+    # How far the circle strays from each chord: r less the centre's distance from the chord, where
+    # the perpendicular foot lies on it (else the ends, checked above, say it all).
+    ux, uy = np.diff(p[:, 0]), np.diff(p[:, 1])
+    length2 = ux * ux + uy * uy
+    t = (-dx[:-1] * ux - dy[:-1] * uy) / np.where(length2 > 0, length2, 1.0)
+    inner = (t > 0.0) & (t < 1.0)
+    fx, fy = dx[:-1] + t * ux, dy[:-1] + t * uy
+    if np.any(inner & (np.abs(r - np.hypot(fx, fy)) > tol)):
+        return None
     if closed:
         if abs(abs(sweep) - TWO_PI) > 1e-6:
             return None
     elif abs(sweep) >= TWO_PI - 1e-9:
         return None
-    return centre, sign < 0
+    return (cx, cy), sweep < 0
 
 
 def _arc_inside(start: Point, end: Point, centre: Point, cw: bool, area: Optional[WorkArea]) -> bool:
@@ -133,31 +124,83 @@ def _drawn_line(item: Item) -> bool:
     return isinstance(item, Move) and item.kind == "line" and not item.rapid and item.pen == PEN_DOWN
 
 
+def _longest_fit(points: Sequence[Point], i: int, config: FitConfig) -> Optional[Tuple[int, Point, bool]]:
+    """The longest run of points from i that one arc holds, (last index, centre, clockwise), or
+    None.  The run grows a point at a time; a run that does not fit ends the search only when the
+    next few do not either, since the circle through the run's ends and middle moves as it grows."""
+    last = min(len(points) - 1, i + config.max_moves)
+    best, misses = None, 0
+    for j in range(i + config.min_moves, last + 1):
+        fit = fit_run(points[i:j + 1], config)
+        if fit is not None and _arc_inside(points[i], points[j], fit[0], fit[1], config.area):
+            best, misses = (j, *fit), 0
+        else:
+            misses += 1
+            if best is None or misses > LOOK_PAST:
+                break
+    return best
+
+
+def line_run(points: Sequence[Point], tolerance: float) -> bool:
+    """Whether one straight line from the first point to the last holds all the points within the
+    tolerance, passing them in order (never back)."""
+    p = np.asarray(points, dtype=float)
+    ux, uy = p[-1, 0] - p[0, 0], p[-1, 1] - p[0, 1]
+    length = math.hypot(ux, uy)
+    if length <= tolerance:
+        return False
+    dx, dy = p[:, 0] - p[0, 0], p[:, 1] - p[0, 1]
+    along = (dx * ux + dy * uy) / length
+    across = (dy * ux - dx * uy) / length
+    return bool(np.all(np.abs(across) <= tolerance) and np.all(np.diff(along) > 0.0))
+
+
+def _longest_line(points: Sequence[Point], i: int, config: FitConfig) -> int:
+    """The last index of the longest run of points from i that one line holds (i + 1 at least)."""
+    last = min(len(points) - 1, i + config.max_moves)
+    best = i + 1
+    for j in range(i + 2, last + 1):
+        if not line_run(points[i:j + 1], config.tolerance):
+            break
+        best = j
+    return best
+
+
+Piece = Tuple[int, int, Optional[Point], Optional[bool]]   # first, last point index; centre and cw of an arc
+
+
+def fit_polyline(points: Sequence[Point], config: FitConfig = FitConfig()) -> List[Piece]:
+    """A polyline as pieces: arcs (first, last, centre, cw) over each run of its points that one arc
+    holds within the tolerance, lines (first, last, None, None) over each run that one line holds,
+    whichever is the longer from where the last piece ended."""
+    out: List[Piece] = []
+    i = 0
+    while i < len(points) - 1:
+        arc = _longest_fit(points, i, config) if len(points) - 1 - i >= config.min_moves else None
+        line = _longest_line(points, i, config)
+        if arc is not None and arc[0] > line:
+            out.append((i, arc[0], arc[1], arc[2]))
+            i = arc[0]
+        else:
+            out.append((i, line, None, None))
+            i = line
+    return out
+
+
 def _fit_chain(chain: List[Move], config: FitConfig) -> List[Move]:
     """One chain of joined drawn lines of one feed, with every run that fits as an arc."""
+    points = [(chain[0].sx, chain[0].sy)] + [(m.x, m.y) for m in chain]
     out: List[Move] = []
-    i = 0
-    while i < len(chain):
-        best = None
-        j = i + config.min_moves - 1
-        while j < len(chain) and j - i < config.max_moves:
-            pts = [(chain[i].sx, chain[i].sy)] + [(m.x, m.y) for m in chain[i:j + 1]]
-            fit = fit_run(pts, config)
-            if fit is None:
-                break
-            if _arc_inside(pts[0], pts[-1], fit[0], fit[1], config.area):
-                best = (j, fit)
-            j += 1
-        if best is None:
-            out.append(chain[i])
-            i += 1
+    for first, last, centre, cw in fit_polyline(points, config):
+        start = points[first]
+        if centre is None:
+            out.append(chain[first] if last == first + 1 else
+                       replace(chain[first], sx=start[0], sy=start[1], x=points[last][0], y=points[last][1]))
             continue
-        j, (centre, cw) = best
-        first, last = chain[i], chain[j]
-        closed = math.dist((first.sx, first.sy), (last.x, last.y)) <= 1e-9
-        end = (first.sx, first.sy) if closed else (last.x, last.y)     # a full circle ends where it starts
-        out.append(replace(first, kind="arc", x=end[0], y=end[1], cx=centre[0], cy=centre[1], cw=cw))
-        i = j + 1
+        closed = math.dist(start, points[last]) <= 1e-9
+        end = start if closed else points[last]     # a full circle ends where it starts
+        out.append(replace(chain[first], kind="arc", sx=start[0], sy=start[1], x=end[0], y=end[1],
+                           cx=centre[0], cy=centre[1], cw=cw))
     return out
 
 

@@ -22,6 +22,11 @@ Rounding rules, chosen so that errors never accumulate:
   and its centre rounded.
 - An arc whose ends round to the same step (shorter than a step) becomes a
   zero-length line.
+- An arc too large for the board's numbers (a radius, centre offset or
+  displacement beyond 32767 steps, firmware/PROTOCOL.md) goes as chords
+  whose ends are on the exact arc (rounded once) and which stray from it by at
+  most half a step: so flat an arc is a line to the board at a few hundred
+  steps of sagitta per chord anyway.
 
 Dwell, PenChange and Pause items pass through unchanged, in order.
 """
@@ -34,6 +39,8 @@ from typing import Iterable, List, Optional, Tuple, Union
 
 from .types import Dwell, Item, Move, Pause, PenChange
 from .geometry import Point, arc_midpoint, arc_sweep
+
+TWO_PI = 2.0 * math.pi
 
 
 @dataclass(frozen=True)
@@ -56,6 +63,8 @@ class StepMove:
 
 
 StepItem = Union[StepMove, Dwell, PenChange, Pause]
+
+MAX_OFFSET = 32767      # the board's range of dx, dy, i and j in one command (firmware/PROTOCOL.md)
 
 
 def round_step(value: float) -> int:
@@ -108,12 +117,54 @@ def _piece(move: Move, s: Tuple[int, int], e: Tuple[int, int], centre: Point,
                     radius_error=_radius_difference(c, s, e), **common)
 
 
+def _fits_board(move: Move, spm: float) -> bool:
+    """Whether the arc's numbers fit the board's arcs: its radius (so every centre offset)
+    within MAX_OFFSET steps, one short of it for rounding, and each piece's displacement too."""
+    start, end, centre = (move.sx * spm, move.sy * spm), (move.x * spm, move.y * spm), (move.cx * spm, move.cy * spm)
+    if math.dist(start, centre) > MAX_OFFSET - 2:
+        return False
+    if move.is_full_circle:
+        return True
+    ends = [start, end]
+    if arc_sweep(start, end, centre, bool(move.cw)) > math.pi:
+        ends.insert(1, arc_midpoint(start, end, centre, bool(move.cw)))
+    return all(abs(b[0] - a[0]) <= MAX_OFFSET - 2 and abs(b[1] - a[1]) <= MAX_OFFSET - 2
+               for a, b in zip(ends, ends[1:]))
+
+
+def _arc_chords(move: Move, s: Tuple[int, int], spm: float) -> List[StepMove]:
+    """An arc as chords (steps) that stray from it by at most half a step."""
+    centre = (move.cx * spm, move.cy * spm)
+    start = (move.sx * spm, move.sy * spm)
+    r = math.dist(start, centre)
+    sweep = TWO_PI if move.is_full_circle else arc_sweep(start, (move.x * spm, move.y * spm), centre,
+                                                         bool(move.cw))
+    # sagitta r (1 - cos(a / 2)) <= 0.5 step, and no chord longer than the board takes in one line
+    per_chord = min(2.0 * math.acos(max(-1.0, 1.0 - 0.5 / r)), 2.0 * math.asin(min(1.0, MAX_OFFSET / (2 * r))))
+    n = max(1, math.ceil(sweep / per_chord))
+    a0 = math.atan2(start[1] - centre[1], start[0] - centre[0])
+    sign = -1.0 if move.cw else 1.0
+    out, prev = [], s
+    for k in range(1, n + 1):
+        if k == n:
+            e = (round_step(move.x * spm), round_step(move.y * spm))
+        else:
+            a = a0 + sign * sweep * k / n
+            e = (round_step(centre[0] + r * math.cos(a)), round_step(centre[1] + r * math.sin(a)))
+        out.append(StepMove(move.line, "line", e[0], e[1], e[0] - prev[0], e[1] - prev[1],
+                            move.feed, move.pen, move.rapid))
+        prev = e
+    return out
+
+
 def _convert(move: Move, spm: float) -> List[StepMove]:
     s = (round_step(move.sx * spm), round_step(move.sy * spm))
     e = (round_step(move.x * spm), round_step(move.y * spm))
     if move.kind != "arc":
         return [StepMove(move.line, "line", e[0], e[1], e[0] - s[0], e[1] - s[1],
                          move.feed, move.pen, move.rapid)]
+    if not _fits_board(move, spm):
+        return _arc_chords(move, s, spm)
     centre = (move.cx * spm, move.cy * spm)
     if move.is_full_circle:
         c = (round_step(centre[0]), round_step(centre[1]))

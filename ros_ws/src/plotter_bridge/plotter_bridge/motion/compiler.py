@@ -14,7 +14,7 @@ from plotter_bridge.gcode.dialect import (DEFAULT_MARLIN_PEN_DOWN, DEFAULT_MARLI
 from plotter_bridge.gcode.arcfit import FitConfig, fit_arcs
 from plotter_bridge.gcode.parser import check_program, decode_program
 from plotter_bridge.gcode.limits import WorkArea
-from plotter_bridge.gcode.steps import to_steps
+from plotter_bridge.gcode.steps import MAX_OFFSET, to_steps
 from plotter_bridge.gcode.types import GCodeError
 from .hanging import hanging_motion
 from .kinematics import DEFAULT_Z_STEPS_PER_MM, HangingGeometry, check_z
@@ -42,7 +42,8 @@ class StreamerConfig:
     pen_up_z: float = DEFAULT_PEN_UP_Z                # z_mode pen: Z above this lifts the pen
     marlin_pen_down: float = DEFAULT_MARLIN_PEN_DOWN  # marlin: M300 S<angle> that lowers the pen
     marlin_pen_up: float = DEFAULT_MARLIN_PEN_UP      # marlin: M300 S<angle> that lifts it
-    fit_arcs: float = 0.0              # > 0: runs of drawn chords on a circle go as arcs within this (mm)
+    fit_arcs: bool = True              # runs of drawn chords on a circle or a line go as one arc or line
+    arc_tolerance: float = 0.02        # fit_arcs: the fitted path's greatest distance from the chords (mm)
 
     def __post_init__(self) -> None:
         check_z(self.z_mode, self.z_steps_per_mm)
@@ -76,8 +77,11 @@ def compile_program(text: str, config: StreamerConfig,
     items = check_program(decode_program(data), config.area, rapid_rate=config.rapid_feed, start=start,
                           z_axis=z_axis, start_z=start_z_steps / config.z_steps_per_mm,
                           options=config.gcode_options()).items
-    if config.fit_arcs > 0.0:
-        items = fit_arcs(items, FitConfig(tolerance=config.fit_arcs, area=config.area))
+    if config.fit_arcs and config.machine == "cartesian":
+        # (the hanging machine's moves go as short lines whatever they were)
+        # no flatter arcs than the board takes in one command: they would go as chords again
+        items = fit_arcs(items, FitConfig(tolerance=config.arc_tolerance, area=config.area,
+                                          max_radius=(MAX_OFFSET - 2) / config.motor_steps_per_mm()))
     z_motion = z_axis_motion(config.z_steps_per_mm) if z_axis else None
     if config.machine == "hanging":
         commands = to_commands(items, hanging_motion(config.hanging, config.tolerance), config.rapid_feed,

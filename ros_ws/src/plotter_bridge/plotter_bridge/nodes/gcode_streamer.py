@@ -115,8 +115,10 @@ SPECS = (
               low=0.0, above=True, high=1e5),
     ParamSpec("junction_deviation", 0.05, "corner rule of the look-ahead planner", "mm", low=0.0, high=10.0),
     ParamSpec("lookahead", True, "plan speeds across commands; false stops at every command"),
-    ParamSpec("fit_arcs", 0.0, "runs of drawn chords that lie on a circle within this go to the board as one arc "
-                               "each (0: off; gcode/arcfit.py)", "mm", low=0.0, high=1.0),
+    ParamSpec("fit_arcs", True, "runs of drawn chords that one arc or line holds within arc_tolerance go to the "
+                                "board as that arc or line (gcode/arcfit.py; cartesian machine)"),
+    ParamSpec("arc_tolerance", 0.02, "fit_arcs: the fitted path's greatest distance from the chords it replaces",
+              "mm", low=0.0, above=True, high=1.0),
     ParamSpec("link_baud", -1, "slow commands shorter than their time on the serial link down to its pace at "
                                "this baud rate (-1: serial_bridge's, 0: off)", "baud", low=-1, high=1_000_000),
     ParamSpec("tolerance", 0.1, "hanging machine: largest pen deviation from the programmed path", "mm",
@@ -158,7 +160,7 @@ def streamer_config(values) -> StreamerConfig:
                           z_mode=machine.z_mode, z_steps_per_mm=machine.z_steps_per_mm,
                           dialect=str(values["dialect"]), pen_up_z=v["pen_up_z"],
                           marlin_pen_down=v["marlin_pen_down"], marlin_pen_up=v["marlin_pen_up"],
-                          fit_arcs=float(values["fit_arcs"]))
+                          fit_arcs=bool(values["fit_arcs"]), arc_tolerance=float(values["arc_tolerance"]))
 
 
 class GCodeStreamer(Node):

@@ -56,7 +56,8 @@ class GraphOptions:
     z_steps_per_mm: float = DEFAULT_Z_STEPS_PER_MM
     z_range: Optional[Tuple[float, float]] = None   # travel of Z, z_min, z_max (mm)
     gcode: GCodeOptions = field(default_factory=GCodeOptions)   # the programs' dialect and pen rules
-    fit_arcs: float = 0.0          # mm: the streamer's fit_arcs (0: off)
+    fit_arcs: bool = True          # the streamer's fit_arcs
+    arc_tolerance: float = 0.02    # mm: the streamer's arc_tolerance
 
 
 @dataclass
@@ -107,7 +108,8 @@ class LocalGraph:
         streamer_params += [Parameter("dialect", value=options.gcode.dialect),
                             *(Parameter(name, value=float(getattr(options.gcode, name)))
                               for name in ("pen_up_z", "marlin_pen_down", "marlin_pen_up"))]
-        streamer_params.append(Parameter("fit_arcs", value=float(options.fit_arcs)))
+        streamer_params += [Parameter("fit_arcs", value=bool(options.fit_arcs)),
+                            Parameter("arc_tolerance", value=float(options.arc_tolerance))]
         if options.journal_dir:
             streamer_params.append(Parameter("journal_dir", value=options.journal_dir))
         self.streamer = GCodeStreamer(namespace=options.namespace, context=self._context,
