@@ -7,8 +7,12 @@ are then turned back into lines and circular arcs: the circles and circular
 arcs of the input (read with svgelements, the parser vpype itself uses) are
 carried through the same transform, and a run of polyline points lying on
 one of them, turning steadily one way, becomes one arc (G2/G3 in the
-program) instead of hundreds of short lines. Cubic and quadratic curves and
-elliptical arcs stay polylines.
+program) instead of hundreds of short lines. Cubic and quadratic curves,
+elliptical arcs and the strokes of Hershey text become circular arcs and
+lines fitted to vpype's points within ARC_TOLERANCE_MM (gcode/arcfit.py, the
+fit the streamer applies to chords): each arc passes through points of the
+curve and strays from it by less than a step, so a curve goes to the board
+as a few arcs, not hundreds of chords its 9600-baud link cannot feed.
 
 Coordinates here are millimetres in the plotter's frame (+y away from the
 operator, where SVG's +y points down); vpype's documents are in CSS pixels
@@ -25,7 +29,9 @@ import numpy as np
 
 PX_PER_MM = 96.0 / 25.4
 QUANTIZATION_PX = 0.1          # vpype's flattening step when reading
-SIMPLIFY_MM = 0.005            # polyline simplification, well under a step (1/80 mm)
+SIMPLIFY_MM = 0.002            # polyline simplification before fitting: fewer points, no shape lost
+ARC_TOLERANCE_MM = 0.01        # fitted arcs and lines within this of the curve (with SIMPLIFY_MM): under a step
+FIT_MAX_RADIUS_MM = 400.0      # flatter is a line: the board's arcs reach 32767 steps (409 mm at 80 steps/mm)
 MERGE_MM = 0.05                # paths whose ends are this close are joined (optimize)
 MAX_ARC_STEP = 0.35            # rad between polyline points taken as one arc
 MIN_ARC_RADIUS_MM = 0.1
@@ -178,12 +184,30 @@ def split_arcs(pts: Sequence[complex], circles: Sequence[Circle]) -> list:
     return pieces
 
 
+def fitted_segments(points: Sequence[complex]) -> list:
+    """A polyline of a curve as plotter_shapes Lines and Arcs within ARC_TOLERANCE_MM of it."""
+    from plotter_bridge.gcode.arcfit import FitConfig, fit_polyline
+    from plotter_shapes.geometry import Arc, Line
+    pts = [(p.real, p.imag) for p in points]
+    config = FitConfig(tolerance=ARC_TOLERANCE_MM - SIMPLIFY_MM, max_radius=FIT_MAX_RADIUS_MM)
+    segs: list = []
+    for first, last, centre, cw in fit_polyline(pts, config):
+        (x0, y0), (x1, y1) = pts[first], pts[last]
+        if centre is None:
+            if (x0, y0) != (x1, y1):
+                segs.append(Line(x0, y0, x1, y1))
+        else:
+            segs.append(Arc(x0, y0, x1, y1, centre[0], centre[1], bool(cw)))
+    return segs
+
+
 def to_figure(d: Drawing, name: str = ""):
     """The drawing as a plotter_shapes Figure, one stroke per polyline: arcs where it follows
-    a circle of the input, lines elsewhere, simplified by vpype (linesimplify)."""
+    a circle of the input, arcs and lines fitted to the rest (simplified by vpype's linesimplify
+    first, which only drops points)."""
     import vpype as vp
     import vpype_cli
-    from plotter_shapes.geometry import Figure, Line, Stroke
+    from plotter_shapes.geometry import Figure, Stroke
     split = [split_arcs(list(line), d.circles) for line in d.lines]
     runs = [piece for pieces in split for piece in pieces if isinstance(piece, list)]
     if runs:
@@ -196,8 +220,7 @@ def to_figure(d: Drawing, name: str = ""):
         segs: list = []
         for piece in pieces:
             if isinstance(piece, list):
-                pts = next(simplified)
-                segs += [Line(a.real, a.imag, b.real, b.imag) for a, b in zip(pts, pts[1:]) if a != b]
+                segs += fitted_segments(next(simplified))
             else:
                 segs.append(piece)
         if segs:
