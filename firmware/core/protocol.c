@@ -255,6 +255,7 @@ static const ROM char states[] = "<Alarm \0<Hold \0<Run \0<Idle ";
 static void report_status(void)
 {
     uint8_t state;
+    uint16_t v;
     stepper_snapshot();
     state = 21;
     if (st_running) state = 15;
@@ -273,14 +274,23 @@ static void report_status(void)
     put_tag('N');
     put_u16(expected_seq);
     put_tag('S');
-    put_u16(st_seg.seq);
+    /* 16-bit values the step interrupt writes: read with it masked, so that a
+     * segment load or underrun between the two byte reads cannot report half
+     * of each (a few cycles of latency for the interrupt). */
+    HAL_CRITICAL_BEGIN();
+    v = st_seg.seq;
+    HAL_CRITICAL_END();
+    put_u16(v);
     put_tag('P');
 #if BIT_PEN != 0x10
 #error "the status report takes the pen from bit 4"
 #endif
     put_u8((uint8_t)(st_port & BIT_PEN) >> 4);
     put_tag('U');
-    put_u16(st_underruns);
+    HAL_CRITICAL_BEGIN();
+    v = st_underruns;
+    HAL_CRITICAL_END();
+    put_u16(v);
     put_tag('A');
     put_u8(alarm_code);
     out('>');
