@@ -1,0 +1,360 @@
+#!/usr/bin/env python3
+"""What the step interrupt leaves to the UART and the main loop, at the
+fastest feed the image accepts on each path, in figures that hold on the
+chip and not only in s51.
+
+usage: tools/isr_share.py [--arc-feed N] [build/plotter]        (make share)
+
+--arc-feed N: the arcs at N steps/s instead of the top feed (what a lower
+top feed for arcs would give).
+
+s51 dispatches pending interrupts in polling order whatever their priority;
+the chip obeys priority (the step timer high, the UART low: IP in
+hal/mcs51/main.c), so there a pending step interrupt always wins.  Nothing
+here relies on s51's arbitration:
+
+- the share: the step interrupt's clocks over a run (uCsim's ISR timer,
+  which counts only while an interrupt is in service) against the run's
+  clocks from its first step to its end.  Nothing else interrupts meanwhile
+  (the UART is quiet after the `~~` that starts the run), so the figure is
+  the step interrupt's own, the same on the chip; the main loop and the
+  UART have the rest;
+- the longest step while cruising, from a saturated run (the cruise period
+  of every queued segment overwritten in RAM by one far shorter than the
+  interrupt, tools/bench.py): its steps come back to back, so each interval
+  is one interrupt and one main-loop instruction.  The shortest gap between
+  two step interrupts at the path's fastest feed is that feed's period less
+  the longest step;
+- the longest paths of the UART and step interrupts, counted from their
+  listings (every branch both ways, calls included, the segment load's one
+  loop at its count): bounds for any path, feasible or not.
+
+The criteria (firmware/README.md), on every path at its fastest feed: the
+share is at most SHARE_MAX, so the main loop and the UART keep a third of
+the CPU; and while cruising, the steps leave the UART interrupt its longest
+path in every byte time, so that on the chip it is done before the next
+byte is in (the receiver holds one): in a stretch of one byte time at most
+that time / period + 1 steps start, and the longest run of that many
+consecutive measured steps is what they can take.
+"""
+import concurrent.futures
+import os
+import re
+import sys
+import tempfile
+from dataclasses import dataclass
+from pathlib import Path
+from typing import List, Optional
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+import bench  # noqa: E402
+import s51sim  # noqa: E402
+
+SHARE_MAX = 2 / 3
+BAUD = 9600               # the default image's UART (hal/mcs51/main.c)
+CYCLES_PER_S = s51sim.CLOCK_HZ // 12
+RAMP_TOP = 12850          # core/ramp.h: the fastest feed the image accepts, lines and arcs alike
+
+# 8051 machine cycles of the instructions that take two (MUL and DIV four); every other takes one.
+TWO_CYCLES = {"ajmp", "ljmp", "sjmp", "jmp", "acall", "lcall", "ret", "reti", "jc", "jnc", "jb", "jnb",
+              "jbc", "jz", "jnz", "cjne", "djnz", "movc", "movx", "push", "pop"}
+JUMPS = {"ajmp", "ljmp", "sjmp"}
+BRANCHES = {"jc", "jnc", "jb", "jnb", "jbc", "jz", "jnz", "cjne", "djnz"}
+
+
+def cycles_of(mnemonic, operands):
+    """Machine cycles of one 8051 instruction (the data sheet's table)."""
+    ops = [o.strip().lower() for o in operands.split(",")] if operands else []
+    if mnemonic in ("mul", "div"):
+        return 4
+    if mnemonic in TWO_CYCLES:
+        return 2
+    if mnemonic == "inc" and ops == ["dptr"]:
+        return 2
+    if mnemonic == "mov":
+        dst, src = ops[0], ops[1]
+        if dst == "dptr":
+            return 2
+        if dst == "c" or src == "c":
+            return 2 if src == "c" else 1
+        register = re.fullmatch(r"a|r[0-7]|@r[01]", dst) is not None
+        if dst == "a":
+            return 1
+        if register:
+            return 2 if not (src == "a" or src.startswith("#")) else 1
+        return 1 if src == "a" else 2                   # mov direct, ...
+    if mnemonic in ("anl", "orl", "xrl"):
+        if ops[0] == "c":
+            return 2
+        return 2 if ops[0] != "a" and ops[1].startswith("#") else 1
+    return 1
+
+
+@dataclass(frozen=True)
+class Instruction:
+    addr: int
+    mnemonic: str
+    operands: str
+    cycles: int
+    scope: str            # the function it is in: SDCC's local labels (00101$) are its own
+
+
+LABEL = re.compile(r"\s+([0-9A-F]{6})\s+\d+\s+([\w$]+):{1,2}\s*(?:;.*)?$")
+CODE = re.compile(r"\s+([0-9A-F]{6})\s+(?:[0-9A-F]{2}\s)+\s*\[\d+\]\s+\d+\s+(?:([\w$]+):{1,2})?\s*(\w+)\s*([^;]*)")
+
+
+def module_code(rst_lines):
+    """The instructions of a listing and its labels' addresses, keyed (scope, name): a local
+    label (00101$) by the function it is in, every other by ''."""
+    code, labels, scope = [], {}, ""
+
+    def label(name: str, addr: int) -> None:
+        nonlocal scope
+        if name.endswith("$"):
+            labels[(scope, name)] = addr
+        else:
+            scope = name
+            labels[("", name)] = addr
+    for line in rst_lines:
+        m = LABEL.match(line)
+        if m:
+            label(m.group(2), int(m.group(1), 16))
+            continue
+        m = CODE.match(line)
+        if m:
+            addr = int(m.group(1), 16)
+            if m.group(2):
+                label(m.group(2), addr)
+            mnemonic, operands = m.group(3).lower(), m.group(4).strip()
+            code.append(Instruction(addr, mnemonic, operands, cycles_of(mnemonic, operands), scope))
+    return code, labels
+
+
+def longest_path(code, labels, entry, loops=None):
+    """Cycles of the longest path from the label `entry` to its reti (or ret), every conditional
+    branch taken both ways and every call's own longest path added.  A loop counts only if it is
+    named in `loops` ({head label: iterations}: a `djnz` back to the head closes it), each time
+    round its longest body; any other loop, a computed jump or a call out of the listing is
+    refused (its cost is not bounded here)."""
+    index = {ins.addr: k for k, ins in enumerate(code)}
+    heads = {index[labels[("", name)]]: n for name, n in (loops or {}).items()}
+    memo = {}
+
+    def target(ins):
+        name = ins.operands.split(",")[-1].strip()
+        key = (ins.scope if name.endswith("$") else "", name)
+        if key not in labels:
+            raise ValueError(f"{ins.mnemonic} {ins.operands} at 0x{ins.addr:04x}: not in the listing")
+        return index[labels[key]]
+
+    def cost(k, seen=frozenset(), stop=None):
+        if k == stop:                          # a loop body ends at its closing djnz
+            return code[k].cycles
+        if stop is None and k in memo:
+            return memo[k]
+        if k in seen:
+            raise ValueError(f"a loop at 0x{code[k].addr:04x} without a bound")
+        ins = code[k]
+        seen = seen | {k}
+        if k in heads and stop is None:
+            close = next(j for j in range(k, len(code))
+                         if code[j].mnemonic == "djnz" and target(code[j]) == k)
+            total = heads[k] * cost(k, frozenset(), close) + cost(close + 1, seen)
+            memo[k] = total
+            return total
+        if ins.mnemonic == "jmp":
+            raise ValueError(f"computed jump at 0x{ins.addr:04x}")
+        if ins.mnemonic in ("reti", "ret"):
+            after = 0
+        elif ins.mnemonic in JUMPS:
+            after = cost(target(ins), seen, stop)
+        elif ins.mnemonic in BRANCHES:
+            after = max(cost(target(ins), seen, stop), cost(k + 1, seen, stop))
+        elif ins.mnemonic in ("acall", "lcall"):
+            after = cost(target(ins)) + cost(k + 1, seen, stop)
+        else:
+            after = cost(k + 1, seen, stop)
+        if stop is None:
+            memo[k] = ins.cycles + after
+        return ins.cycles + after
+    return cost(index[labels[("", entry)]])
+
+
+def uart_isr_cycles(sym):
+    """The UART interrupt's longest path, with the hardware's call into it (2 cycles)."""
+    return 2 + longest_path(*module_code(sym.rst["main"]), "_uart_isr")
+
+
+def step_isr_cycles(sym):
+    """The step interrupt's longest path, with the hardware's call and the vector's jump: its one
+    loop copies a segment from the queue two bytes a turn (SEG_SIZE / 2 turns)."""
+    lines = sym.rst["stepper_isr"]
+    size = next(int(m.group(1)) for m in (re.search(r"\bSEG_SIZE\s*=\s*(\d+)", line) for line in lines) if m)
+    return 2 + 2 + longest_path(*module_code(lines), "_stepper_isr", loops={"load_byte": size // 2})
+
+
+# Each path at the fastest feed the image accepts for it.  Settings first (`$k=v; ...`).
+def paths(arc_feed=RAMP_TOP):
+    t, a = RAMP_TOP, arc_feed
+    quarter = ["A 30 30 0 30", "A -30 30 -30 0", "A -30 -30 0 -30", "A 30 -30 30 0"]
+    return {
+        "line along X": f"L 30000 0 {t}",
+        "line along Y": f"L 0 30000 {t}",
+        "line, diagonal": f"L 20000 -20000 {t}",
+        "line, exponential ramp": f"$1=1; L 30000 0 {t}",
+        "arc, counter-clockwise": f"A 0 0 1500 0 {a}",
+        "arc, clockwise": f"C 0 0 0 3000 {a}",
+        "arc on the ramp throughout": f"A 0 0 0 -200 {a}",
+        "short lines, a segment load every 40 steps": "; ".join([f"L 40 0 {t} {t}"] * 5 + [f"L 40 0 {t}"]),
+        "quarter arcs r 30, a load every 60 steps": "; ".join([f"{q} {a} {a}" for q in quarter]
+                                                              + [f"{quarter[0]} {a}"]),
+    }
+
+
+def feed_of(command):
+    """The fastest rate a path's commands ask for."""
+    return max(int(line.split()[5 if line[0] in "AC" else 3]) for line in bench.lines_of(command)
+               if line[0] in "LAC")
+
+
+def share_run(base, command):
+    """(step interrupt clocks, run clocks from its first step to its end) of one command, as
+    commanded."""
+    with tempfile.TemporaryDirectory() as tmp:
+        vcd = str(Path(tmp) / "trace.vcd")
+        with s51sim.Sim(base, vcd=vcd) as sim:
+            sim.go()
+            sim.read_until(rb"ready[^\n]*\n")
+            sim.stop()
+            sim.cmd("timer add isr_run 1 isr")
+            sim.cmd("timer add all_run 1")
+            queue_and_run(sim, command)
+            text = sim.cmd("timer get")
+        isr = int(re.search(r'"isr_run"\) ON,ISR [\d.]+ sec \((\d+) clks\)', text).group(1))
+        total = int(re.search(r'"all_run"\) ON [\d.]+ sec \((\d+) clks\)', text).group(1))
+        ev = s51sim.read_vcd(vcd)
+        prev, first = 0xFF, None
+        for t, v in ev["P1"]:
+            if v & bench.STEP_BITS and not prev & bench.STEP_BITS:
+                first = t
+                break
+            prev = v
+        idle = round(first * s51sim.CLOCK_HZ / 10**12) if first is not None else 0
+        return isr, total - idle
+
+
+def queue_and_run(sim, command):
+    """bench.measure's queueing under a feed hold, with both timers zeroed as the run starts."""
+    sim.go()
+    sim.write(b"!!?")
+    sim.read_until(rb"<Hold[^\n]*\n")
+    for line in bench.lines_of(command):
+        sim.write(line.encode() + b"\n")
+        reply = sim.read_until(rb"(?:ok|err|rs)[^\r\n]*\r\n").decode().strip()
+        if not reply.startswith("ok"):
+            raise RuntimeError(f"{line!r}: {reply!r}")
+    sim.stop()
+    stop, = sim.sym.instructions(bench.isr_module(sim.sym), "_stepper_isr", "clr", "_st_running")
+    sim.cmd(f"tbreak 0x{stop:x}")
+    sim.cmd("timer set isr_run 0")
+    sim.cmd("timer set all_run 0")
+    sim.vcd_start()
+    sim.go()
+    sim.write(b"~~")
+    sim.wait_stop(timeout=300)
+    sim.vcd_stop()
+
+
+def cruise_interrupts(base, command):
+    """Cycles of each step interrupt while cruising, in order, from a saturated run of a command
+    long enough to cruise: its back-to-back intervals over the middle half (checked to be cruise
+    against the host core's schedule), less the one main-loop instruction between two."""
+    intervals, _ = bench.run(base, s51sim.CLOCK_HZ, command, True)
+    middle = bench.cruise_of(base.parent / "libplotter_core.so", command, len(intervals))
+    return [intervals[k] - 1 for k in middle]
+
+
+@dataclass
+class PathFigures:
+    name: str
+    command: str
+    feed: int
+    share: float
+    steps: Optional[List[int]]      # cycles of each cruise step (None: the path never cruises long)
+
+    @property
+    def period(self):
+        return CYCLES_PER_S / self.feed
+
+    @property
+    def longest(self):
+        return None if self.steps is None else max(self.steps)
+
+    @property
+    def gap(self):
+        """The shortest gap between two cruise steps (below 0: a step longer than the period, which
+        the next follows at once)."""
+        return None if self.steps is None else self.period - self.longest
+
+    def least_free(self, window):
+        """The fewest cycles the cruise steps leave in any stretch of `window` cycles: at most
+        window / period + 1 steps start in it, and their interrupts (consecutive ones, as measured)
+        take what they take."""
+        if self.steps is None:
+            return None
+        n = min(len(self.steps), int(window // self.period) + 1)
+        busy = max(sum(self.steps[k:k + n]) for k in range(len(self.steps) - n + 1))
+        return max(0.0, window - busy)
+
+    def ok(self, window, uart):
+        free = self.least_free(window)
+        return self.share <= SHARE_MAX and (free is None or free >= uart)
+
+
+CRUISING = ("line along X", "line along Y", "line, diagonal", "arc, counter-clockwise", "arc, clockwise")
+
+
+def measure_all(base, arc_feed=RAMP_TOP):
+    jobs = paths(arc_feed)
+    with concurrent.futures.ThreadPoolExecutor(max_workers=min(4, os.cpu_count() or 1)) as pool:
+        shares = dict(zip(jobs, pool.map(lambda c: share_run(base, c), jobs.values())))
+        steps = dict(zip(CRUISING, pool.map(lambda name: cruise_interrupts(base, jobs[name]), CRUISING)))
+    return [PathFigures(name, command, feed_of(command), shares[name][0] / shares[name][1], steps.get(name))
+            for name, command in jobs.items()]
+
+
+def main(argv):
+    args = list(argv[1:])
+    arc_feed = RAMP_TOP
+    if "--arc-feed" in args:
+        k = args.index("--arc-feed")
+        arc_feed = int(args[k + 1])
+        del args[k:k + 2]
+    base = Path(args[0]) if args else s51sim.FIRMWARE / "build" / "plotter"
+    if not s51sim.s51_path():
+        print("s51 (Debian package sdcc-ucsim) is not installed", file=sys.stderr)
+        return 1
+    sym = s51sim.Symbols(base)
+    uart = uart_isr_cycles(sym)
+    window = 10 * CYCLES_PER_S / BAUD
+    figures = measure_all(base, arc_feed)
+    print(f"`make -C firmware share`: {base.name}, {CYCLES_PER_S} machine cycles/s, a byte every {window:.0f} "
+          f"cycles at {BAUD} baud; longest paths from the listings: UART interrupt {uart} cycles, step "
+          f"interrupt {step_isr_cycles(sym)} (a segment load with an arc's quadrant change)")
+    print()
+    print("| path | feed steps/s | period cycles | step interrupt share | longest cruise step cycles | "
+          "shortest gap cycles | least free in a byte time |")
+    print("|---|---|---|---|---|---|---|")
+    for f in figures:
+        cells = ["-" if v is None else f"{v:.0f}" for v in (f.longest, f.gap, f.least_free(window))]
+        print(f"| {f.name} | {f.feed} | {f.period:.1f} | {100 * f.share:.1f} % | {' | '.join(cells)}"
+              f"{'' if f.ok(window, uart) else ' (fails)'} |")
+    ok = all(f.ok(window, uart) for f in figures)
+    print()
+    print(f"criteria: share at most {100 * SHARE_MAX:.1f} % on every path, and while cruising at least the UART "
+          f"interrupt's {uart} cycles free in every byte time: {'met' if ok else 'NOT met'}")
+    return 0 if ok else 2
+
+
+if __name__ == "__main__":
+    sys.exit(main(sys.argv))
