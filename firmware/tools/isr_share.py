@@ -52,6 +52,8 @@ import s51sim  # noqa: E402
 
 SHARE_MAX = 2 / 3
 BAUD = 9600               # the default image's UART (hal/mcs51/main.c)
+# Candidate rates (Timer 1 at 11.0592 MHz with SMOD: TH1 0xFA, 0xFD and 0xFF; 38400 would need 254.5)
+BAUDS = (9600, 19200, 38400, 57600)
 CYCLES_PER_S = s51sim.CLOCK_HZ // 12
 RAMP_TOP = 12850          # core/ramp.h: the fastest feed the image accepts, lines and arcs alike
 
@@ -349,6 +351,18 @@ def main(argv):
         cells = ["-" if v is None else f"{v:.0f}" for v in (f.longest, f.gap, f.least_free(window))]
         print(f"| {f.name} | {f.feed} | {f.period:.1f} | {100 * f.share:.1f} % | {' | '.join(cells)}"
               f"{'' if f.ok(window, uart) else ' (fails)'} |")
+    print()
+    print("The least free in a byte time at the baud rates Timer 1 gives with SMOD (the UART interrupt needs "
+          f"{uart}):")
+    print()
+    print("| baud | byte time cycles | lines, cruising | arcs, cruising |")
+    print("|---|---|---|---|")
+    for baud in BAUDS:
+        w = 10 * CYCLES_PER_S / baud
+        least = {kind: min(f.least_free(w) for f in figures if f.steps is not None and kind in f.name)
+                 for kind in ("line", "arc")}
+        cells = [f"{least[k]:.0f}{'' if least[k] >= uart else ' (fails)'}" for k in ("line", "arc")]
+        print(f"| {baud} | {w:.0f} | {' | '.join(cells)} |")
     ok = all(f.ok(window, uart) for f in figures)
     print()
     print(f"criteria: share at most {100 * SHARE_MAX:.1f} % on every path, and while cruising at least the UART "
