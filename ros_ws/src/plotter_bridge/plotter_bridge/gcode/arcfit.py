@@ -8,9 +8,11 @@ vertex within the tolerance of the circle, and each chord's bulge (the
 circle's distance from the chord) within it too; the run's two ends are the
 arc's ends, exactly.  A run turning both ways (an inflection), flatter than
 `max_radius` or tighter than `min_radius`, or whose arc would leave the work
-area, stays as it was.  Only drawn moves (pen down, not rapid) of one feed
-are joined: travel and pen changes end a run.  Pure functions on the parsed
-items; nothing here knows the board.
+area, stays as it was.  A run that one straight line holds within the
+tolerance, passing its points in order, becomes that line; from each point
+the longer of the two is taken.  Only drawn moves (pen down, not rapid) of
+one feed are joined: travel and pen changes end a run.  Pure functions on
+the parsed items; nothing here knows the board.
 """
 from __future__ import annotations
 
