@@ -145,6 +145,9 @@ def check_bridge(values) -> Optional[str]:
     return why
 
 
+HOME_CONNECT_WAIT_S = 5.0     # how long `home` waits for a board that has not answered yet
+
+
 def bridge_homing(values) -> HomingConfig:
     """The homing cycle's settings in steps, from the parameters in mm."""
     spm = machine_of(values).steps_per_mm
@@ -433,6 +436,10 @@ class SerialBridge(Node):
             response.success, response.message = False, (
                 "homing is off: set homing:=true on a machine with its limit switches wired at the -X and "
                 "-Y ends (firmware/README.md); without them a seek would run into the frame")
+        elif not self.session.wait_connected(HOME_CONNECT_WAIT_S):
+            # (a `plotter home` typed as the bridge starts finds the board still answering its first query)
+            response.success, response.message = False, (
+                f"board not connected (waited {HOME_CONNECT_WAIT_S:g} s): is it plugged in and powered?")
         elif not self._reserve():
             response.success, response.message = False, "a job is running: home when the board is idle"
         else:
