@@ -35,6 +35,13 @@ class RealProgram:
     def name(self) -> str:
         return self.file
 
+    def options(self):
+        """How its tool's firmware reads it (GCodeOptions)."""
+        from plotter_bridge.gcode.dialect import GCodeOptions
+        if self.marlin_pen:
+            return GCodeOptions(self.dialect, marlin_pen_down=self.marlin_pen[0], marlin_pen_up=self.marlin_pen[1])
+        return GCodeOptions(self.dialect)
+
     def args(self) -> List[str]:
         """The options of plotter check and plotter stream for it."""
         out = ["--dialect", self.dialect]

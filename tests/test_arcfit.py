@@ -234,12 +234,7 @@ def _drawn_chains(moves: List[Move]) -> List[List[Move]]:
 
 def _corpus():
     from real_programs import ACCEPTED
-
-    def options(p) -> GCodeOptions:
-        if p.marlin_pen:
-            return GCodeOptions(p.dialect, marlin_pen_down=p.marlin_pen[0], marlin_pen_up=p.marlin_pen[1])
-        return GCodeOptions(p.dialect)
-    out = [pytest.param(p.path, options(p), id=p.name) for p in ACCEPTED]
+    out = [pytest.param(p.path, p.options(), id=p.name) for p in ACCEPTED]
     out += [pytest.param(path, GCodeOptions("grbl" if "grbl" in path.name else "marlin" if "marlin" in path.name
                                             else "linuxcnc"), id=path.name)
             for path in sorted((DATA / "corpus" / "generated").glob("*.*")) if path.suffix in (".ngc", ".gcode")]

@@ -47,8 +47,7 @@ def run_check(*args: str) -> Tuple[int, str, str]:
 
 
 def options(p: RealProgram) -> GCodeOptions:
-    return GCodeOptions(p.dialect, marlin_pen_down=p.marlin_pen[0], marlin_pen_up=p.marlin_pen[1]) \
-        if p.marlin_pen else GCodeOptions(p.dialect)
+    return p.options()
 
 
 def text_of(p: RealProgram) -> str:

@@ -101,11 +101,12 @@ def lines_of(command):
     return [line.strip() for line in command.split(";")]
 
 
-def measure(sim, command, saturate):
+def measure(sim, command, saturate, before_run=None):
     """Run one command to its end with the VCD recording.  The command is
     queued under a feed hold and released with `~`, so that it can be
     changed in the queue before the motion starts (the simulator stops
-    long after it is asked to)."""
+    long after it is asked to).  before_run(sim): called with the simulator
+    stopped, just before the run is released."""
     offs = segment_offsets(s51sim.FIRMWARE / "core" / "segment.h")
     sim.go()
     sim.write(b"!!?")
@@ -126,6 +127,8 @@ def measure(sim, command, saturate):
     # The end of the motion: the interrupt finds the queue empty and stops.
     stop, = sim.sym.instructions(isr_module(sim.sym), "_stepper_isr", "clr", "_st_running")
     sim.cmd(f"tbreak 0x{stop:x}")
+    if before_run is not None:
+        before_run(sim)
     sim.vcd_start()
     sim.go()
     sim.write(b"~~")

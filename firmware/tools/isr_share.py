@@ -230,7 +230,11 @@ def share_run(base, command):
             sim.stop()
             sim.cmd("timer add isr_run 1 isr")
             sim.cmd("timer add all_run 1")
-            queue_and_run(sim, command)
+
+            def zero(sim):
+                sim.cmd("timer set isr_run 0")
+                sim.cmd("timer set all_run 0")
+            bench.measure(sim, command, False, before_run=zero)
             text = sim.cmd("timer get")
         isr = int(re.search(r'"isr_run"\) ON,ISR [\d.]+ sec \((\d+) clks\)', text).group(1))
         total = int(re.search(r'"all_run"\) ON [\d.]+ sec \((\d+) clks\)', text).group(1))
@@ -243,28 +247,6 @@ def share_run(base, command):
             prev = v
         idle = round(first * s51sim.CLOCK_HZ / 10**12) if first is not None else 0
         return isr, total - idle
-
-
-def queue_and_run(sim, command):
-    """bench.measure's queueing under a feed hold, with both timers zeroed as the run starts."""
-    sim.go()
-    sim.write(b"!!?")
-    sim.read_until(rb"<Hold[^\n]*\n")
-    for line in bench.lines_of(command):
-        sim.write(line.encode() + b"\n")
-        reply = sim.read_until(rb"(?:ok|err|rs)[^\r\n]*\r\n").decode().strip()
-        if not reply.startswith("ok"):
-            raise RuntimeError(f"{line!r}: {reply!r}")
-    sim.stop()
-    stop, = sim.sym.instructions(bench.isr_module(sim.sym), "_stepper_isr", "clr", "_st_running")
-    sim.cmd(f"tbreak 0x{stop:x}")
-    sim.cmd("timer set isr_run 0")
-    sim.cmd("timer set all_run 0")
-    sim.vcd_start()
-    sim.go()
-    sim.write(b"~~")
-    sim.wait_stop(timeout=300)
-    sim.vcd_stop()
 
 
 def cruise_interrupts(base, command):

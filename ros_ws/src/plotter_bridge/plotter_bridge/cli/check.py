@@ -237,12 +237,11 @@ def run_check(args: argparse.Namespace, out: TextIO = None, err: TextIO = None) 
     items = program.items
     fitted = ""
     if args.fit_arcs is not None:
-        from plotter_bridge.gcode.arcfit import FitConfig, fit_arcs
-        from plotter_bridge.gcode.steps import MAX_OFFSET
+        from plotter_bridge.gcode.arcfit import fit_arcs
+        from plotter_bridge.motion.compiler import board_fit
         try:
             before = sum(isinstance(i, Move) for i in items)
-            items = fit_arcs(items, FitConfig(tolerance=args.fit_arcs, area=area,
-                                              max_radius=(MAX_OFFSET - 2) / args.steps_per_mm))
+            items = fit_arcs(items, board_fit(args.fit_arcs, area, args.steps_per_mm))
         except ValueError as exc:
             err.write(f"--fit-arcs: {exc}\n")
             return EXIT_BAD_PROGRAM

@@ -37,10 +37,9 @@ import math
 from dataclasses import dataclass
 from typing import Iterable, List, Optional, Tuple, Union
 
+from plotter_bridge.link.protocol import MAX_DELTA
 from .types import Dwell, Item, Move, Pause, PenChange
-from .geometry import Point, arc_midpoint, arc_sweep
-
-TWO_PI = 2.0 * math.pi
+from .geometry import TWO_PI, Point, arc_midpoint, arc_sweep
 
 
 @dataclass(frozen=True)
@@ -64,7 +63,7 @@ class StepMove:
 
 StepItem = Union[StepMove, Dwell, PenChange, Pause]
 
-MAX_OFFSET = 32767      # the board's range of dx, dy, i and j in one command (firmware/PROTOCOL.md)
+MAX_OFFSET = MAX_DELTA - 2     # dx, dy, i and j of a board arc, with room for rounding (firmware/PROTOCOL.md)
 
 
 def round_step(value: float) -> int:
@@ -119,16 +118,16 @@ def _piece(move: Move, s: Tuple[int, int], e: Tuple[int, int], centre: Point,
 
 def _fits_board(move: Move, spm: float) -> bool:
     """Whether the arc's numbers fit the board's arcs: its radius (so every centre offset)
-    within MAX_OFFSET steps, one short of it for rounding, and each piece's displacement too."""
+    within MAX_OFFSET steps, and each piece's displacement too."""
     start, end, centre = (move.sx * spm, move.sy * spm), (move.x * spm, move.y * spm), (move.cx * spm, move.cy * spm)
-    if math.dist(start, centre) > MAX_OFFSET - 2:
+    if math.dist(start, centre) > MAX_OFFSET:
         return False
     if move.is_full_circle:
         return True
     ends = [start, end]
     if arc_sweep(start, end, centre, bool(move.cw)) > math.pi:
         ends.insert(1, arc_midpoint(start, end, centre, bool(move.cw)))
-    return all(abs(b[0] - a[0]) <= MAX_OFFSET - 2 and abs(b[1] - a[1]) <= MAX_OFFSET - 2
+    return all(abs(b[0] - a[0]) <= MAX_OFFSET and abs(b[1] - a[1]) <= MAX_OFFSET
                for a, b in zip(ends, ends[1:]))
 
 
@@ -140,7 +139,7 @@ def _arc_chords(move: Move, s: Tuple[int, int], spm: float) -> List[StepMove]:
     sweep = TWO_PI if move.is_full_circle else arc_sweep(start, (move.x * spm, move.y * spm), centre,
                                                          bool(move.cw))
     # sagitta r (1 - cos(a / 2)) <= 0.5 step, and no chord longer than the board takes in one line
-    per_chord = min(2.0 * math.acos(max(-1.0, 1.0 - 0.5 / r)), 2.0 * math.asin(min(1.0, MAX_OFFSET / (2 * r))))
+    per_chord = min(2.0 * math.acos(max(-1.0, 1.0 - 0.5 / r)), 2.0 * math.asin(min(1.0, MAX_DELTA / (2 * r))))
     n = max(1, math.ceil(sweep / per_chord))
     a0 = math.atan2(start[1] - centre[1], start[0] - centre[0])
     sign = -1.0 if move.cw else 1.0

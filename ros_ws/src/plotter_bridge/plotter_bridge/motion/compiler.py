@@ -6,7 +6,7 @@ all happen here, completely, so that a bad program is refused whole.
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import List, Tuple
+from typing import List, Optional, Tuple
 
 from .commands import FIRMWARE_ACCEL, BoardCommand, cartesian_motion, to_commands, z_axis_motion
 from plotter_bridge.gcode.dialect import (DEFAULT_MARLIN_PEN_DOWN, DEFAULT_MARLIN_PEN_UP, DEFAULT_PEN_UP_Z,
@@ -61,6 +61,12 @@ class StreamerConfig:
         return PlannerLimits(min(self.acceleration * k, 0.8 * FIRMWARE_ACCEL), self.junction_deviation * k)
 
 
+def board_fit(tolerance: float, area: Optional[WorkArea], steps_per_mm: float) -> FitConfig:
+    """The arc fit for this board: no flatter arcs than it takes in one command (they would go as
+    chords again, gcode/steps.py)."""
+    return FitConfig(tolerance=tolerance, area=area, max_radius=MAX_OFFSET / steps_per_mm)
+
+
 def compile_program(text: str, config: StreamerConfig,
                     start_steps: Tuple[int, int] = (0, 0), start_z_steps: int = 0) -> List[BoardCommand]:
     """G-code text to board commands for a pen now at start_steps (and, with
@@ -79,9 +85,7 @@ def compile_program(text: str, config: StreamerConfig,
                           options=config.gcode_options()).items
     if config.fit_arcs and config.machine == "cartesian":
         # (the hanging machine's moves go as short lines whatever they were)
-        # no flatter arcs than the board takes in one command: they would go as chords again
-        items = fit_arcs(items, FitConfig(tolerance=config.arc_tolerance, area=config.area,
-                                          max_radius=(MAX_OFFSET - 2) / config.motor_steps_per_mm()))
+        items = fit_arcs(items, board_fit(config.arc_tolerance, config.area, config.motor_steps_per_mm()))
     z_motion = z_axis_motion(config.z_steps_per_mm) if z_axis else None
     if config.machine == "hanging":
         commands = to_commands(items, hanging_motion(config.hanging, config.tolerance), config.rapid_feed,
