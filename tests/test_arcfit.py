@@ -261,3 +261,20 @@ def test_every_file_of_the_corpus_keeps_its_drawing(path, options):
             k = end + 1
         assert k == len(b)
     assert [(m.x, m.y) for m in fitted if m.rapid] == [(m.x, m.y) for m in original if m.rapid]
+
+
+def test_an_arc_too_large_for_the_board_goes_as_chords_within_a_step():
+    """G2 R1000 over 140 mm: its centre is 79804 steps away, beyond the board's 32767.  It goes as
+    lines the board takes, and every step the firmware core takes for them is on the arc."""
+    from plotter_bridge.link.protocol import MAX_DELTA
+    from plotter_bridge.motion.compiler import StreamerConfig, compile_program
+    from plotter_bridge.sim.expected import step_positions
+    commands = compile_program("G0 X10 Y10\nM3\nG2 X150 Y10 R1000 F1000\n", StreamerConfig())
+    drawn = commands[commands.index(next(c for c in commands if c.text == "P 1")) + 1:]
+    assert drawn and all(c.verb == "L" for c in drawn)
+    assert all(abs(a) <= MAX_DELTA for c in commands for a in c.args)
+    cx, cy = 80.0, 10.0 - math.sqrt(1000.0 ** 2 - 70.0 ** 2)
+    steps = step_positions([c.text for c in commands])
+    on_arc = steps[steps.index((800, 800)) + 1:]
+    assert on_arc[-1] == (12000, 800)
+    assert max(abs(math.hypot(x / 80.0 - cx, y / 80.0 - cy) - 1000.0) for x, y in on_arc) <= 2 / 80.0
