@@ -278,3 +278,10 @@ def test_an_arc_too_large_for_the_board_goes_as_chords_within_a_step():
     on_arc = steps[steps.index((800, 800)) + 1:]
     assert on_arc[-1] == (12000, 800)
     assert max(abs(math.hypot(x / 80.0 - cx, y / 80.0 - cy) - 1000.0) for x, y in on_arc) <= 2 / 80.0
+
+
+def test_the_step_layer_and_the_link_agree_on_the_board_range():
+    """gcode/ may not import link/, so gcode/steps.py keeps its own copy of the board's range."""
+    from plotter_bridge.gcode import steps
+    from plotter_bridge.link.protocol import MAX_DELTA
+    assert steps.MAX_DELTA == MAX_DELTA

@@ -37,7 +37,6 @@ import math
 from dataclasses import dataclass
 from typing import Iterable, List, Optional, Tuple, Union
 
-from plotter_bridge.link.protocol import MAX_DELTA
 from .types import Dwell, Item, Move, Pause, PenChange
 from .geometry import TWO_PI, Point, arc_midpoint, arc_sweep
 
@@ -63,6 +62,9 @@ class StepMove:
 
 StepItem = Union[StepMove, Dwell, PenChange, Pause]
 
+# The board's range of one command's numbers (link/protocol.py's MAX_DELTA, which this
+# layer may not import; tests/test_arcfit.py holds the two equal).
+MAX_DELTA = 32767
 MAX_OFFSET = MAX_DELTA - 2     # dx, dy, i and j of a board arc, with room for rounding (firmware/PROTOCOL.md)
 
 
