@@ -2,6 +2,7 @@
 no simulator: a bench command's lines, and the check that a saturated run's
 middle half measures cruise rather than a ramp.  The bench itself runs in
 s51 for minutes and prints figures; it is not a test."""
+import re
 import sys
 
 import pytest
@@ -31,7 +32,7 @@ def test_a_line_that_cruises_is_measured_over_its_middle_half():
 
 
 def test_a_circle_on_the_ramp_throughout_is_refused_as_a_cruise_figure():
-    command = "A 0 0 0 -200 12850"
+    command = "A 0 0 0 -25 12850"      # never reaches the arcs' top feed
     n = len(bench.host_schedule(host_library(), command))
     with pytest.raises(RuntimeError, match="not all at cruise"):
         bench.cruise_of(host_library(), command, n)
@@ -40,3 +41,18 @@ def test_a_circle_on_the_ramp_throughout_is_refused_as_a_cruise_figure():
 def test_a_run_of_another_length_than_the_schedule_is_refused():
     with pytest.raises(RuntimeError):
         bench.cruise_of(host_library(), "L 3000 0 12850", 2900)
+
+
+def test_the_planner_caps_an_arcs_feed_and_the_host_knows_the_cap():
+    """Arcs cruise at the arcs' top feed (core/ramp.h ARC_TOP), lines at the ramp's top, whatever the
+    command asks for; the host's commands carry the same caps (link/protocol.py)."""
+    from plotter_bridge.link.protocol import MAX_ARC_RATE, MAX_RATE
+    ramp_h = (FIRMWARE / "core" / "ramp.h").read_text()
+    arc_top, ramp_top = (int(re.search(rf"#define\s+{name}\s+(\d+)", ramp_h).group(1))
+                         for name in ("ARC_TOP", "RAMP_TOP"))
+    assert (MAX_ARC_RATE, MAX_RATE) == (arc_top, ramp_top)
+    cycles_per_s = 11059200 // 12
+    for command in ("A 0 0 1500 0 12850", "C 0 0 0 3000 9000", "A -2561 1061 -1500 0 5001"):
+        assert min(bench.host_schedule(host_library(), command)) == round(cycles_per_s / arc_top), command
+    assert min(bench.host_schedule(host_library(), "A 0 0 1500 0 4000")) == round(cycles_per_s / 4000)
+    assert min(bench.host_schedule(host_library(), "L 30000 0 12850")) == round(cycles_per_s / ramp_top)

@@ -161,11 +161,11 @@ static uint16_t rate_within(uint16_t v, uint16_t hi)
 /* Ramp fields shared by lines and arcs, then into the queue.  The exit is
  * no faster than the feed; a stop (0) counts as FEED_MIN, whose period is
  * far longer than level 1's: level 0. */
-static uint8_t plan_motion(void)
+static uint8_t plan_motion(uint16_t top)
 {
     uint16_t f = plan_arg[PLAN_FEED];
     if (f == 0) f = SETTING(SET_FEED);
-    f = rate_within(f, RAMP_TOP);
+    f = rate_within(f, top);
     plan.cruise = level_for_period(plan.cruise_period = period_of(f));
     /* The exit's period is divided out even when it equals the feed's:
      * skipping that (500-600 machine cycles, period_of's 16 rounds in
@@ -227,7 +227,7 @@ uint8_t planner_line(void)
 #ifdef ZAXIS
     plan.c = 0;                     /* not a Z move */
 #endif
-    return plan_motion();
+    return plan_motion(RAMP_TOP);
 }
 
 #ifdef ZAXIS
@@ -245,7 +245,7 @@ uint8_t planner_z(void)
     plan.a = 0;
     plan.c = 1;
     plan.steps = plan.b;
-    return plan_motion();
+    return plan_motion(RAMP_TOP);
 }
 #endif
 
@@ -498,7 +498,7 @@ uint8_t planner_arc(uint8_t clockwise)
     w = (uint16_t)arc_t;
     if ((uint16_t)(arc_t >> 16)) w = 65535u;
     plan.steps = w;
-    return plan_motion();
+    return plan_motion(ARC_TOP);
 }
 
 /* Pen and dwell: wait plan.steps milliseconds. */

@@ -38,10 +38,15 @@ extern RAMP_ROM uint8_t  ramp_period_hi[RAMP_HI_LEVELS];
 extern RAMP_ROM uint8_t  ramp_hold[RAMP_SHAPES * RAMP_LEVELS];   /* steps per level at multiplier 1 */
 
 /* The start and top rates of both shapes, steps/s: the top is the
- * fastest feed a command may ask for.  The planner finds the level of any
- * other rate by the periods, so no table of rates is kept. */
+ * fastest feed a line may ask for.  The planner finds the level of any
+ * other rate by the periods, so no table of rates is kept.  Arcs stop at
+ * ARC_TOP: an arc step costs the interrupt about 90 cycles and its turn
+ * into the final quadrant about 315-350 (README.md, make share), which at
+ * ARC_TOP leaves the UART and the main loop half the CPU and never spans
+ * two periods (184 cycles), so no period of the timer is lost. */
 #define RAMP_R0  250
 #define RAMP_TOP 12850
+#define ARC_TOP  5000
 
 /* A level is handled as its index: the step interrupt reads the tables
  * with it as it is, one level up or down is RAMP_STEP, and the levels of

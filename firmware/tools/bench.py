@@ -19,9 +19,10 @@ step interrupt sets, see tools/s51sim.py).  From the trace:
 Two kinds of run:
 
 - as commanded (COMMANDED: a line and an arc at the ramp's top rate, T in
-  `$I`, the arc again at 10000 steps/s, a circle too small to cruise, and
-  the line with the other ramp shape and with a gentler acceleration): every step against the host
-  core's schedule, the ramp table.  A step more than the interrupt latency
+  `$I`, which the planner caps at ARC_TOP for the arc, the arc again at
+  10000 steps/s, a circle too small to cruise, and the line with the
+  other ramp shape and with a gentler acceleration): every step against
+  the host core's schedule, the ramp table.  A step more than the interrupt latency
   slower than the table is late; the summary gives their count and the
   table interval of the slowest, below whose rate the table is kept, and
   the count of steps that come early (the auto-reloaded timer keeps the

@@ -642,11 +642,13 @@ in_quadrant:
 	ljmp	cruise_step
 in_quadrant_count:
 	mov	a,(_st_seg + 12) + 1
-	jnz	1$
+	jnz	in_quadrant_steps
 	mov	a,(_st_seg + 12)
-	cjne	a,#1,1$
+	cjne	a,#1,in_quadrant_steps
+turn_ramp:
 	ljmp	ramp			; an estimate: the count runs out at the end, not before
-1$:	ljmp	count
+in_quadrant_steps:
+	ljmp	count
 arc_final:
 	; An axis that reached its end coordinate moves no more.
 	jnb	_st_pulse_x,arc_final_y
@@ -663,8 +665,25 @@ arc_final_y:
 	cjne	a,(_st_seg + 10) + 1,arc_final_done
 	anl	(_st_seg + 1),#~(MV_YP | MV_YN)
 arc_final_done:
-	jnb	_st_cruising,count
+	jnb	_st_cruising,in_quadrant_steps
 	ljmp	cruise_step
+
+turn_cruise:
+	; The turn into the final quadrant (turn_steps), cruising with no hold
+	; and more steps left than the braking point: ramp would find the level
+	; at cruise and no braking due, and cruise would keep its period and
+	; st_cruise_to (the level, the exit and st_brake_at stay while
+	; cruising); only the count to the braking point is new.  Straight to
+	; it: this spares a third of that interrupt at speed.
+	setb	c			; steps - st_cruise_to - 1 < 0: braking is due
+	mov	a,(_st_seg + 12)
+	subb	a,_st_cruise_to
+	mov	a,(_st_seg + 12) + 1
+	subb	a,_st_cruise_to + 1
+	orl	c,_st_hold
+	orl	c,/_st_cruising
+	jc	turn_ramp
+	ljmp	cruise_set
 
 turn:
 	; The arc has crossed into the next quadrant: F0 says whether the step
@@ -714,7 +733,7 @@ turn_steps:
 	addc	a,r3
 	mov	(_st_seg + 12) + 1,a
 	mov	(_st_seg + 1),r6
-	sjmp	ramp
+	sjmp	turn_cruise
 turn_on:
 	; If the fast path ran, it goes on: F >= 0 moves the other axis, and the
 	; axis that did not end the last quadrant is reversed (the quadrants'

@@ -19,6 +19,7 @@ BANNER_PREFIX = "PLOTTER 8051"
 MAX_DELTA = 32767          # the firmware's coordinate range per command
 MIN_RATE = 15              # steps/s: the firmware's slowest feed
 MAX_RATE = 12850           # steps/s: the top of the firmware's ramp table ($I field T)
+MAX_ARC_RATE = 5000        # steps/s: the firmware caps an arc's feed here (core/ramp.h ARC_TOP)
 FIRMWARE_ACCEL = 100000    # steps/s^2: the firmware's ramp at divisor $0=1 ($I field A)
 
 # Real-time commands as they go on the wire.  Hold, resume and reset are a

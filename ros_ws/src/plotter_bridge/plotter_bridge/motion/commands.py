@@ -17,7 +17,7 @@ from typing import Callable, Iterable, List, Optional, Tuple
 
 from plotter_bridge.gcode.steps import StepMove, round_step
 from plotter_bridge.gcode.types import Dwell, Pause, PenChange, ZMove
-from plotter_bridge.link.protocol import FIRMWARE_ACCEL, MAX_DELTA, MAX_RATE, MIN_RATE  # noqa: F401
+from plotter_bridge.link.protocol import FIRMWARE_ACCEL, MAX_ARC_RATE, MAX_DELTA, MAX_RATE, MIN_RATE  # noqa: F401
 
 
 Vec = Tuple[float, float]
@@ -66,11 +66,11 @@ def from_text(text: str, line: int = 0) -> BoardCommand:
     return BoardCommand(verb, (dx, dy, i, j), line, arc_steps(i, j, dx, dy, verb == "C")[0], *numbers[4:6])
 
 
-def _rate(feed_mm_min: float, steps: int, length_mm: float) -> int:
+def _rate(feed_mm_min: float, steps: int, length_mm: float, top: int = MAX_RATE) -> int:
     if steps == 0 or length_mm <= 0:
         return MIN_RATE
     rate = feed_mm_min / 60.0 * steps / length_mm
-    return int(min(MAX_RATE, max(MIN_RATE, round(rate))))
+    return int(min(top, max(MIN_RATE, round(rate))))
 
 
 def arc_steps(i: int, j: int, dx: int, dy: int, cw: bool) -> tuple:
@@ -130,7 +130,7 @@ def cartesian_motion(steps_per_mm: float) -> MotionConverter:
     def convert(item: StepMove, feed: float) -> List[BoardCommand]:
         if item.kind == "arc":
             n, length = arc_steps(item.i, item.j, item.dx, item.dy, item.cw)
-            rate = _rate(feed, n, length / steps_per_mm)
+            rate = _rate(feed, n, length / steps_per_mm, MAX_ARC_RATE)     # as the board would cap it
             return [BoardCommand("C" if item.cw else "A", (item.dx, item.dy, item.i, item.j),
                                  item.line, n, rate,
                                  dir_in=_tangent(-item.i, -item.j, item.cw),
