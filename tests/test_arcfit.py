@@ -285,3 +285,53 @@ def test_the_step_layer_and_the_link_agree_on_the_board_range():
     from plotter_bridge.gcode import steps
     from plotter_bridge.link.protocol import MAX_DELTA
     assert steps.MAX_DELTA == MAX_DELTA
+
+
+def _chord_circle(feed: float, chord: float = 1.0, r: float = 30.0) -> str:
+    n = int(2 * math.pi * r / chord)
+    pts = [(100 + r * math.cos(2 * math.pi * k / n), 100 + r * math.sin(2 * math.pi * k / n)) for k in range(n + 1)]
+    return "\n".join(["G21 G90", f"G0 X{pts[0][0]:.4f} Y{pts[0][1]:.4f}", "M3"]
+                     + [f"G1 X{x:.4f} Y{y:.4f} F{feed:g}" for x, y in pts[1:]] + ["M5"]) + "\n"
+
+
+@pytest.mark.parametrize("feed, baud, arcs", [
+    (6000, 9600, True),       # 1 mm chords wait for the link: 27 bytes at 960 bytes/s, 0.029 s a mm
+    (6000, 0, True),          # the link unknown: the board's default, 9600
+    (6000, 115200, False),    # the link keeps up: chords at 100 mm/s beat arcs at the arcs' top feed
+    (2400, 115200, True),     # a feed an arc keeps: the arc, and fewer bytes
+    (300, 115200, True),
+])
+def test_chords_become_an_arc_only_where_the_arc_draws_no_slower(feed, baud, arcs):
+    """The board steps arcs at most MAX_ARC_RATE (firmware/README.md): a run of chords becomes an
+    arc where that is no slower than the chords at their feed and on the link."""
+    from plotter_bridge.motion.compiler import StreamerConfig, compile_program
+    from plotter_bridge.sim.expected import step_positions
+    program = _chord_circle(feed)
+    fitted = compile_program(program, StreamerConfig(link_baud=baud))
+    chords = compile_program(program, StreamerConfig(link_baud=baud, fit_arcs=False))
+    assert any(c.verb in "AC" for c in fitted) == arcs
+    if not arcs:
+        assert [c.text for c in fitted] == [c.text for c in chords]
+    assert step_positions([c.text for c in fitted])[-1] == step_positions([c.text for c in chords])[-1]
+
+
+def test_arc_pays_weighs_the_arcs_top_feed_against_the_chords_and_their_link():
+    from plotter_bridge.gcode.types import Move
+    from plotter_bridge.link.protocol import MAX_ARC_RATE
+    from plotter_bridge.motion.compiler import arc_pays
+    # a quarter circle of r 10 mm as 16 chords; its steps at 80 steps/mm: 1600
+    pts = [(10 * math.cos(k * math.pi / 32), 10 * math.sin(k * math.pi / 32)) for k in range(17)]
+
+    def chords_at(feed):
+        return [Move(1, "line", a[0], a[1], b[0], b[1], feed, "down") for a, b in zip(pts, pts[1:])]
+    for feed, baud in ((6000, 115200), (6000, 9600), (1000, 115200)):
+        chords = chords_at(feed)
+        arc = Move(1, "arc", 10, 0, 0, 10, feed, "down", cx=0, cy=0, cw=False)
+        steps = 80 * sum(abs(b[0] - a[0]) + abs(b[1] - a[1]) for a, b in zip(pts, pts[1:]))
+        length = sum(math.dist(a, b) for a, b in zip(pts, pts[1:]))
+        as_arc = max(length / (feed / 60), steps / MAX_ARC_RATE)
+        as_chords = max(length / (feed / 60), 16 * 27 / (baud / 10 * 0.97))
+        assert arc_pays(80.0, baud)(chords, arc) == (as_arc <= as_chords), (feed, baud)
+    assert [arc_pays(80.0, b)(chords_at(f), Move(1, "arc", 10, 0, 0, 10, f, "down", cx=0, cy=0, cw=False))
+            for f, b in ((6000, 115200), (6000, 9600), (1000, 115200))] \
+        == [False, True, True]

@@ -7,8 +7,9 @@ when every chord of the run is within `tolerance` of it, both ways: each
 vertex within the tolerance of the circle, and each chord's bulge (the
 circle's distance from the chord) within it too; the run's two ends are the
 arc's ends, exactly.  A run turning both ways (an inflection), flatter than
-`max_radius` or tighter than `min_radius`, or whose arc would leave the work
-area, stays as it was.  A run that one straight line holds within the
+`max_radius` or tighter than `min_radius`, whose arc would leave the work
+area, or that `arc_pays` (the caller's judgement: a machine may draw arcs
+slower than lines) turns down, stays as it was.  A run that one straight line holds within the
 tolerance, passing its points in order, becomes that line; from each point
 the longer of the two is taken.  Only drawn moves (pen down, not rapid) of
 one feed are joined: travel and pen changes end a run.  Pure functions on
@@ -18,7 +19,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, replace
-from typing import List, Optional, Sequence, Tuple
+from typing import Callable, List, Optional, Sequence, Tuple
 
 import numpy as np
 
@@ -39,6 +40,7 @@ class FitConfig:
     min_radius: float = 0.1        # mm
     max_radius: float = 2000.0     # mm: flatter than this is a straight line to the board
     area: Optional[WorkArea] = None
+    arc_pays: Optional[Callable[[Sequence[Move], Move], bool]] = None   # (chords, their arc): take the arc?
 
     def __post_init__(self) -> None:
         if not (math.isfinite(self.tolerance) and self.tolerance > 0):
@@ -201,8 +203,12 @@ def _fit_chain(chain: List[Move], config: FitConfig) -> List[Move]:
             continue
         closed = math.dist(start, points[last]) <= 1e-9
         end = start if closed else points[last]     # a full circle ends where it starts
-        out.append(replace(chain[first], kind="arc", sx=start[0], sy=start[1], x=end[0], y=end[1],
-                           cx=centre[0], cy=centre[1], cw=cw))
+        arc = replace(chain[first], kind="arc", sx=start[0], sy=start[1], x=end[0], y=end[1],
+                      cx=centre[0], cy=centre[1], cw=cw)
+        if config.arc_pays is None or config.arc_pays(chain[first:last], arc):
+            out.append(arc)
+        else:
+            out.extend(chain[first:last])
     return out
 
 

@@ -5,22 +5,26 @@ all happen here, completely, so that a bad program is refused whole.
 """
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
-from typing import List, Optional, Tuple
+from typing import Callable, List, Optional, Sequence, Tuple
 
-from .commands import FIRMWARE_ACCEL, BoardCommand, cartesian_motion, to_commands, z_axis_motion
+from .commands import (FIRMWARE_ACCEL, MAX_ARC_RATE, MAX_RATE, BoardCommand, cartesian_motion, to_commands,
+                       z_axis_motion)
+from plotter_bridge.link.protocol import DEFAULT_BAUD
 from plotter_bridge.gcode.dialect import (DEFAULT_MARLIN_PEN_DOWN, DEFAULT_MARLIN_PEN_UP, DEFAULT_PEN_UP_Z,
                                           LINUXCNC, GCodeOptions)
 from plotter_bridge.gcode.arcfit import FitConfig, fit_arcs
 from plotter_bridge.gcode.parser import check_program, decode_program
 from plotter_bridge.gcode.limits import WorkArea
 from plotter_bridge.gcode.steps import MAX_OFFSET, to_steps
-from plotter_bridge.gcode.types import GCodeError
+from plotter_bridge.gcode.types import GCodeError, Move
 from .hanging import hanging_motion
 from .kinematics import DEFAULT_Z_STEPS_PER_MM, HangingGeometry, check_z
-from .planner import PlannerLimits, cap_for_link, plan
+from .planner import LINK_SHARE, PlannerLimits, cap_for_link, plan
 
 MAX_PROGRAM_BYTES = 4 * 1024 * 1024
+LINE_WIRE_BYTES = 27     # a short line command on the wire (benchmarks/RESULTS.md: 27.3-27.7 a command)
 
 
 @dataclass(frozen=True)
@@ -61,10 +65,31 @@ class StreamerConfig:
         return PlannerLimits(min(self.acceleration * k, 0.8 * FIRMWARE_ACCEL), self.junction_deviation * k)
 
 
-def board_fit(tolerance: float, area: Optional[WorkArea], steps_per_mm: float) -> FitConfig:
+def arc_pays(steps_per_mm: float, link_baud: int) -> Callable[[Sequence[Move], Move], bool]:
+    """Whether an arc draws a run of chords no slower than the chords themselves on this board.
+
+    The board steps an arc at most MAX_ARC_RATE (its interrupt's cost, firmware/README.md) and a line
+    at MAX_RATE; a chord also waits for its bytes on the link (link_baud, 0: the board's default).
+    Each at its feed, as fast as those allow (the ramps aside): the arc is taken when it is not slower,
+    which at the firmware's 9600 baud is nearly always for short chords, and at 115200 only at feeds
+    an arc keeps."""
+    bytes_per_s = (link_baud or DEFAULT_BAUD) / 10.0 * LINK_SHARE
+
+    def pays(chords: Sequence[Move], arc: Move) -> bool:
+        length = sum(math.dist((m.sx, m.sy), (m.x, m.y)) for m in chords)
+        steps = steps_per_mm * sum(abs(m.x - m.sx) + abs(m.y - m.sy) for m in chords)
+        by_feed = length / (arc.feed / 60.0)
+        as_arc = max(by_feed, steps / MAX_ARC_RATE)
+        as_chords = max(by_feed, steps / MAX_RATE, len(chords) * LINE_WIRE_BYTES / bytes_per_s)
+        return as_arc <= as_chords
+    return pays
+
+
+def board_fit(tolerance: float, area: Optional[WorkArea], steps_per_mm: float, link_baud: int = 0) -> FitConfig:
     """The arc fit for this board: no flatter arcs than it takes in one command (they would go as
-    chords again, gcode/steps.py)."""
-    return FitConfig(tolerance=tolerance, area=area, max_radius=MAX_OFFSET / steps_per_mm)
+    chords again, gcode/steps.py), and no arc where the chords draw faster (arc_pays)."""
+    return FitConfig(tolerance=tolerance, area=area, max_radius=MAX_OFFSET / steps_per_mm,
+                     arc_pays=arc_pays(steps_per_mm, link_baud))
 
 
 def compile_program(text: str, config: StreamerConfig,
@@ -85,7 +110,8 @@ def compile_program(text: str, config: StreamerConfig,
                           options=config.gcode_options()).items
     if config.fit_arcs and config.machine == "cartesian":
         # (the hanging machine's moves go as short lines whatever they were)
-        items = fit_arcs(items, board_fit(config.arc_tolerance, config.area, config.motor_steps_per_mm()))
+        items = fit_arcs(items, board_fit(config.arc_tolerance, config.area, config.motor_steps_per_mm(),
+                                          config.link_baud))
     z_motion = z_axis_motion(config.z_steps_per_mm) if z_axis else None
     if config.machine == "hanging":
         commands = to_commands(items, hanging_motion(config.hanging, config.tolerance), config.rapid_feed,
