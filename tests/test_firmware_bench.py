@@ -2,7 +2,6 @@
 no simulator: a bench command's lines, and the check that a saturated run's
 middle half measures cruise rather than a ramp.  The bench itself runs in
 s51 for minutes and prints figures; it is not a test."""
-import re
 import sys
 
 import pytest
@@ -47,9 +46,7 @@ def test_the_planner_caps_an_arcs_feed_and_the_host_knows_the_cap():
     """Arcs cruise at the arcs' top feed (core/ramp.h ARC_TOP), lines at the ramp's top, whatever the
     command asks for; the host's commands carry the same caps (link/protocol.py)."""
     from plotter_bridge.link.protocol import MAX_ARC_RATE, MAX_RATE
-    ramp_h = (FIRMWARE / "core" / "ramp.h").read_text()
-    arc_top, ramp_top = (int(re.search(rf"#define\s+{name}\s+(\d+)", ramp_h).group(1))
-                         for name in ("ARC_TOP", "RAMP_TOP"))
+    from isr_share import ARC_TOP as arc_top, RAMP_TOP as ramp_top     # read from core/ramp.h
     assert (MAX_ARC_RATE, MAX_RATE) == (arc_top, ramp_top)
     cycles_per_s = 11059200 // 12
     for command in ("A 0 0 1500 0 12850", "C 0 0 0 3000 9000", "A -2561 1061 -1500 0 5001"):
