@@ -51,6 +51,46 @@ def steps(p1: Iterable[tuple[int, int]]) -> list:
     return out
 
 
+@dataclass(frozen=True)
+class PulseTiming:
+    """Shortest times on the step and direction pins of one axis, in ps,
+    the figures a driver's data sheet bounds."""
+    high: int           # STEP high
+    low: int            # STEP low between two pulses
+    setup: int          # DIR settled before the STEP's rising edge
+    hold: int           # DIR kept after the STEP's rising edge
+
+
+def pulse_timing(p1: Iterable[tuple[int, int]]) -> dict[str, PulseTiming]:
+    """Per axis ("x", "y"), the shortest of each time over the trace
+    (None where the trace has no such interval)."""
+    out = {}
+    for axis, step, direction in (("x", X_STEP, X_DIR), ("y", Y_STEP, Y_DIR)):
+        high = low = setup = hold = None
+        prev = rise = fall = turn = None
+
+        def least(a, b):
+            return b if a is None or b < a else a
+        for t, v in p1:
+            if prev is not None:
+                if (v ^ prev) & direction:
+                    turn = t
+                    if rise is not None:
+                        hold = least(hold, t - rise)
+                if v & ~prev & step:
+                    if fall is not None:
+                        low = least(low, t - fall)
+                    if turn is not None:
+                        setup = least(setup, t - turn)
+                    rise = t
+                if prev & ~v & step:
+                    high = least(high, t - rise)
+                    fall = t
+            prev = v
+        out[axis] = PulseTiming(high, low, setup, hold)
+    return out
+
+
 def lcd_writes(p0: list[tuple[int, int]], p3: list[tuple[int, int]]) -> list[tuple[int, int, int]]:
     """(time, rs, byte) of every byte the LCD takes: P0 and RS as they are
     when E falls."""

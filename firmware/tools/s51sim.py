@@ -201,6 +201,14 @@ class Sim:
     def set_iram(self, addr, data):
         self.cmd(f"set memory iram 0x{addr:x} " + " ".join(f"0x{b:02x}" for b in data))
 
+    def fetches(self, lo, hi):
+        """{address: how many times the byte there was read}, over lo..hi, since
+        the simulation started (s51's per-address statistic of the code memory):
+        at an instruction's first byte, how many times it ran."""
+        out = self.cmd(f"statistic rom 0x{lo:x} 0x{hi:x}")
+        return {int(a, 16): int(n) for a, n in
+                re.findall(r"rom\[0x([0-9a-f]+)\]\s+writes=\s*\d+\s+\([^)]*\)\s+reads=\s*(\d+)", out)}
+
     def int32(self, name):
         return int.from_bytes(self.iram(self.sym[name], 4), "little", signed=True)
 
