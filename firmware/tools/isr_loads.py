@@ -32,10 +32,10 @@ def paths():
     return {
         "lines of 40 steps joined at the lines' top feed": "; ".join([f"L 40 0 {t} {t}"] * 5 + [f"L 40 0 {t}"]),
         "lines of 4 steps joined at the lines' top feed": "; ".join([f"L 4 0 {t} {t}"] * 5 + [f"L 4 0 {t}"]),
-        "half circles r 100 joined at the arcs' top feed": f"A -200 0 -100 0 {a} {a}; C 200 0 100 0 {a} {a}; "
-                                                           f"A -200 0 -100 0 {a} {a}; L 100 0 {a}",
-        "quarter arcs r 30 joined at the arcs' top feed": "; ".join([f"{q} {a} {a}" for q in quarter]
-                                                                     + [f"{quarter[0]} {a}"]),
+        "half circles r 100 joined at the arcs' top feed":
+            f"A -200 0 -100 0 {a} {a}; C 200 0 100 0 {a} {a}; A -200 0 -100 0 {a} {a}; L 100 0 {a}",
+        "quarter arcs r 30 joined at the arcs' top feed":
+            "; ".join([f"{q} {a} {a}" for q in quarter] + [f"{quarter[0]} {a}"]),
     }
 
 
