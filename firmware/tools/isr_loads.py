@@ -3,7 +3,9 @@
 interrupt of runs in which segments follow each other at speed, and the
 least time they leave free in any byte time.
 
-usage: tools/isr_loads.py [build/plotter]
+usage: tools/isr_loads.py [--command "A ...; C ..."] [build/plotter]
+
+--command: that run alone, with the interrupts of its worst byte time.
 
 tools/isr_share.py bounds the cruise; a segment load is the interrupt's
 longest path (879 cycles by its listing), and short segments joined at
@@ -70,26 +72,55 @@ def interrupts(base, command):
     return [(t, c1 - c0) for (t, c0), (_, c1) in zip(marks, marks[1:])]
 
 
-def least_free(isrs, window):
-    """The fewest cycles the interrupts leave in any stretch of `window` cycles (from an entry)."""
-    worst = 0
+def worst_window(isrs, window):
+    """(busy cycles, index of the first interrupt) of the stretch of `window` cycles, from an
+    entry, in which the interrupts take the most."""
+    worst = (0, 0)
     for k, (t0, _) in enumerate(isrs):
         busy = 0
         for t, d in isrs[k:]:
             if t >= t0 + window:
                 break
             busy += min(d, t0 + window - t)
-        worst = max(worst, busy)
-    return window - worst
+        worst = max(worst, (busy, k))
+    return worst
+
+
+def least_free(isrs, window):
+    """The fewest cycles the interrupts leave in any stretch of `window` cycles (from an entry)."""
+    return window - worst_window(isrs, window)[0]
+
+
+def show_worst(base, command, window):
+    isrs = interrupts(base, command)
+    busy, k = worst_window(isrs, window)
+    print(f"{command}: {len(isrs)} interrupts; the worst byte time starts at interrupt {k} and leaves "
+          f"{window - busy:.0f} cycles free")
+    print()
+    print("| interrupt | starts, cycles after the first | cycles |")
+    print("|---|---|---|")
+    for j in range(k, len(isrs)):
+        if isrs[j][0] >= isrs[k][0] + window:
+            break
+        print(f"| {j} | {isrs[j][0] - isrs[k][0]} | {isrs[j][1]} |")
 
 
 def main(argv):
-    base = Path(argv[1]) if len(argv) > 1 else s51sim.FIRMWARE / "build" / "plotter"
+    args = list(argv[1:])
+    command = None
+    if "--command" in args:
+        k = args.index("--command")
+        command = args[k + 1]
+        del args[k:k + 2]
+    base = Path(args[0]) if args else s51sim.FIRMWARE / "build" / "plotter"
     if not s51sim.s51_path():
         print("s51 (Debian package sdcc-ucsim) is not installed", file=sys.stderr)
         return 1
     uart = uart_isr_cycles(s51sim.Symbols(base))
     window = 10 * CYCLES_PER_S / BAUD
+    if command:
+        show_worst(base, command, window)
+        return 0
     print(f"`python3 firmware/tools/isr_loads.py`: {base.name}, a byte every {window:.0f} cycles at {BAUD} "
           f"baud; the UART interrupt's longest path {uart} cycles")
     print()
