@@ -31,6 +31,7 @@ instruction of the interrupt has run (or is named in NEVER_RUN, with why).
 """
 import collections
 import ctypes
+import functools
 import math
 import re
 import subprocess
@@ -48,7 +49,6 @@ sys.path.insert(0, str(FIRMWARE / "tools"))
 import s51sim  # noqa: E402
 from isr_share import ARC_TOP, module_code  # noqa: E402  (core/ramp.h)
 
-REPLY = rb"(?:ok|err|rs)[^\r\n]*\r\n"
 LATENCY = 8          # machine cycles: the instruction an interrupt waits for, and a little
 LOAD_OVERRUN = 64    # how much later than its time a pulse may come after a long interrupt, below the top feeds
 # A long interrupt (a segment load, a level change at a high rate, an arc's
@@ -251,15 +251,18 @@ def build(request):
     return request.param, mcu_image(**options), clock_hz, options
 
 
+@functools.lru_cache(maxsize=None)
+def isr_listing(image):
+    """The step interrupt's instructions (stepper_isr.asm) in the image, and its labels."""
+    return module_code(s51sim.Symbols(image).rst["stepper_isr"])
+
+
 def isr_instructions(image):
-    """The step interrupt's instructions (stepper_isr.asm) in the image."""
-    code, _ = module_code(s51sim.Symbols(image).rst["stepper_isr"])
-    return code
+    return isr_listing(image)[0]
 
 
 def isr_label(image, name):
-    _, labels = module_code(s51sim.Symbols(image).rst["stepper_isr"])
-    return labels[("", name)]
+    return isr_listing(image)[1][("", name)]
 
 
 # How many times each instruction of the step interrupt ran, per image,

@@ -24,20 +24,21 @@ from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 import bench  # noqa: E402
+import isr_share  # noqa: E402
 import s51sim  # noqa: E402
 from isr_share import ARC_TOP, BAUD, CYCLES_PER_S, RAMP_TOP, uart_isr_cycles  # noqa: E402
 
 
 def paths():
+    """isr_share's two paths with segment loads, and two more: shorter lines, longer arcs."""
     t, a = RAMP_TOP, ARC_TOP
-    quarter = ["A 30 30 0 30", "A -30 30 -30 0", "A -30 -30 0 -30", "A 30 -30 30 0"]
+    share = isr_share.paths()
     return {
-        "lines of 40 steps joined at the lines' top feed": "; ".join([f"L 40 0 {t} {t}"] * 5 + [f"L 40 0 {t}"]),
+        "lines of 40 steps joined at the lines' top feed": share["short lines, a segment load every 40 steps"],
         "lines of 4 steps joined at the lines' top feed": "; ".join([f"L 4 0 {t} {t}"] * 5 + [f"L 4 0 {t}"]),
         "half circles r 100 joined at the arcs' top feed":
             f"A -200 0 -100 0 {a} {a}; C 200 0 100 0 {a} {a}; A -200 0 -100 0 {a} {a}; L 100 0 {a}",
-        "quarter arcs r 30 joined at the arcs' top feed":
-            "; ".join([f"{q} {a} {a}" for q in quarter] + [f"{quarter[0]} {a}"]),
+        "quarter arcs r 30 joined at the arcs' top feed": share["quarter arcs r 30, a load every 60 steps"],
     }
 
 
