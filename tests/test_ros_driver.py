@@ -635,6 +635,9 @@ def test_a_job_planned_for_another_machine_than_the_bridges_is_refused_before_an
         time.sleep(0.5)
         assert not (g.trace.exists() and read_trace(g.trace)), "the board stepped"
         assert "planned for another machine" in g.bridge.output()
+    except BaseException:
+        print(g.outputs())
+        raise
     finally:
         probe.close()
         g.close()

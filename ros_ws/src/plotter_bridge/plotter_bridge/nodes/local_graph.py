@@ -27,6 +27,7 @@ from plotter_bridge.sim.faults import FaultSpec
 from plotter_bridge.sim.mock_board import MockBoard, MockBoardConfig
 
 from .gcode_streamer import GCodeStreamer
+from .late_clients import retry_late_answers
 from .serial_bridge import SerialBridge
 from .spinning import SpinThread
 from .teardown import teardown_watchdog
@@ -76,6 +77,7 @@ class LocalGraph:
         self.board: Optional[MockBoard] = None
         self._context = Context()
         rclpy.init(context=self._context, args=[])
+        retry_late_answers()
         port = options.port
         self._tmp: Optional[tempfile.TemporaryDirectory] = None
         z_mode = "axis" if options.z_axis else "pen"

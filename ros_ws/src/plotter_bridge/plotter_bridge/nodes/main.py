@@ -11,6 +11,7 @@ from rclpy.exceptions import ParameterException
 from rclpy.executors import ExternalShutdownException, MultiThreadedExecutor
 from rclpy.node import Node
 
+from .late_clients import retry_late_answers
 from .spinning import shutdown_after_callbacks, spin_step
 from .teardown import teardown_watchdog
 
@@ -34,6 +35,7 @@ def run_node(make: Callable[[], Node], name: str, args: Optional[List[str]] = No
         return EXIT_BAD_PARAMETER
     node: Optional[Node] = None
     executor: Optional[MultiThreadedExecutor] = None
+    retry_late_answers()
     try:
         node = make()
         executor = MultiThreadedExecutor(num_threads=threads)
