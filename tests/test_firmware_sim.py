@@ -192,3 +192,35 @@ def test_position_copy_takes_a_step_between_its_reads():
         sim.go()
         status = STATUS.search(sim.read_until(rb"<[^>]*>[^\n]*\n").decode())
         assert status and status.group(2, 3) == ("1", "0")
+
+
+def _memory_at_main(fill: int):
+    """Internal RAM (above bank 0) and the 256 bytes of XRAM when main() is
+    entered, every byte of both set to `fill` at reset."""
+    require_s51()
+    with s51sim.Sim(mcu_image()) as sim:
+        for at in range(0, 256, 16):         # s51's command line is short
+            sim.cmd(f"set memory xram 0x{at:x} " + " ".join([f"0x{fill:02x}"] * 16))
+            if at >= 16:
+                sim.cmd(f"set memory iram 0x{at:x} " + " ".join([f"0x{fill:02x}"] * 16))
+        sim.cmd("set memory iram 0x08 " + " ".join([f"0x{fill:02x}"] * 8))
+        sim.run_to(sim.sym["_main"])
+        out = sim.cmd("dump xram 0x0 0xff")
+        xram = []
+        for line in out.splitlines():
+            m = re.match(r"\s*0x[0-9a-f]+((?:\s+[0-9a-f]{2})+)", line)
+            if m:
+                xram += [int(v, 16) for v in m.group(1).split()]
+        return sim.iram(0x08, 248), bytes(xram[:256])
+
+
+def test_start_up_leaves_the_same_memory_whatever_the_ram_held_at_power_on():
+    """hal/mcs51/startup.asm clears all of internal RAM and XRAM before SDCC's
+    initialisers run: main() starts from the same memory whether the chip's
+    RAM came up all zeros, all ones or anything else."""
+    zeros = _memory_at_main(0x00)
+    for fill in (0xFF, 0xA5):
+        iram, xram = _memory_at_main(fill)
+        assert iram == zeros[0], f"internal RAM after power-on with 0x{fill:02X}"
+        assert xram == zeros[1], f"XRAM after power-on with 0x{fill:02X}"
+    assert zeros[1] == bytes(256)

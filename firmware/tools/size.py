@@ -9,8 +9,10 @@ Reads build/plotter.map (segment sizes and addresses) and build/plotter.mem
   internal RAM   register banks, bit and data segments (direct, 0x00-0x7F),
                  indirect data (ISEG) and the stack reserve           (256 B)
   XRAM           the on-chip expanded RAM (__xdata)                   (256 B)
-Exits 1 if any of them is over the chip's limit, or if the linker reported
-an error: the build must not produce an image that does not fit.
+Exits 1 if any of them is over the chip's limit, if the linker reported
+an error, or if the image has initialised __xdata, which its start-up code
+(hal/mcs51/startup.asm) does not copy: the build must not produce an image
+that does not fit or does not start as written.
 
 The stack grows up from the first free byte after the data; --stack N (40
 by default) is the room it must have: the deepest call chain of the main
@@ -94,6 +96,11 @@ def main(argv):
         print(f"{name:13s} {used:5d} / {limit:5d}  {detail}{flag}")
     for err in mem["errors"]:
         print("linker:", err.strip())
+    xinit = areas.get("XINIT", (0, 0, ""))[1]
+    if xinit:
+        print(f"initialised __xdata ({xinit} bytes): hal/mcs51/startup.asm clears XRAM, it does not copy "
+              f"initial values: give the variables their values in code", file=sys.stderr)
+        return 1
     if over or mem["errors"]:
         print("the image does not fit the STC89C52RC", file=sys.stderr)
         return 1
