@@ -1,6 +1,6 @@
 /* hal.h - selects the hardware layer: the 8051 board under SDCC, the host
  * simulation under gcc.  The core only uses the macros listed here:
- *   FAST, IDATA, XDATA    storage classes (direct / indirect internal RAM, external RAM)
+ *   FAST, IDATA, XDATA    storage classes (direct / indirect internal RAM, the on-chip XRAM)
  *   ROM                   storage class of constant tables and strings (program memory)
  *   FLAG                  type of a one-bit flag (a bit variable on the 8051)
  *   STEPPER_ISR           definition line of the step timer interrupt

@@ -7,6 +7,8 @@ Used by tools/bench.py and tests/test_firmware_sim.py.  The simulated board:
   12 clocks, CYCLE_PS picoseconds.  A chip in 6-clock mode (make CPU6T=1)
   runs as s51 does at twice the crystal, CLOCK_HZ_6T: s51 knows only 12
   clocks a cycle;
+- its 256 bytes of XRAM at every page of the xram space, as MOVX @Ri
+  reaches them on the chip whatever P2 holds;
 - its UART on two pseudo-terminals in raw mode (`-S in=...,out=...`), polled
   every cycle (`uart0_check_often=1`) so that typed lines arrive whole;
 - the simulator's command line on a local TCP port (`-Z`), prompt a NUL
@@ -26,6 +28,8 @@ import select
 import shutil
 import socket
 import subprocess
+import tempfile
+import threading
 import time
 import tty
 from pathlib import Path
@@ -95,7 +99,7 @@ class Sim:
         port = sock.getsockname()[1]
         sock.close()
         self.proc = subprocess.Popen(
-            ["s51", "-b", "-P", "-t", "8052", "-X", str(clock_hz),
+            ["s51", "-b", "-P", "-t", "8052", "-X", str(clock_hz), "-C", str(self._chip_xram_commands()),
              "-S", f"in={rx_name},out={tx_name}", "-Z", str(port),
              str(self.base.with_suffix(".ihx"))],
             stdin=subprocess.DEVNULL, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
@@ -121,6 +125,21 @@ class Sim:
             self.cmd("set hw vcd[0] add sfr[0xd0].3")
             for signal in extra_signals:      # e.g. "sfr[0xa0]", port 2
                 self.cmd(f"set hw vcd[0] add {signal}")
+
+    @staticmethod
+    def _chip_xram_commands():
+        """A command file for s51 -C: the chip's 256 bytes of XRAM at every
+        page of s51's xram.  MOVX @Ri (the image's __pdata) reaches the
+        STC89C52RC's on-chip XRAM at Ri whatever P2 holds, while s51's 8052
+        takes P2 as the high byte, and the keypad scan and the phase drives
+        write P2."""
+        path = Path(tempfile.gettempdir()) / f"s51-stc89-xram-{os.getpid()}.cmd"
+        if not path.exists():
+            part = path.with_suffix(f".{threading.get_ident()}")
+            part.write_text("".join(f"memory create addressdecoder xram 0x{page:02x}00 0x{page:02x}ff "
+                                    f"xram_chip 0x0000\n" for page in range(1, 256)))
+            os.replace(part, path)
+        return path
 
     def _raw_pty(self):
         master, slave = pty.openpty()

@@ -5,10 +5,12 @@ usage: tools/size.py build/plotter [--stack N]
 
 Reads build/plotter.map (segment sizes and addresses) and build/plotter.mem
 (the linker's memory summary) and prints:
-  code           HOME + GSINIT* + CSEG + CONST ... bytes of flash    (8 KB)
+  code           HOME + GSINIT* + CSEG + CONST ... bytes of flash    (8 KB),
+                 the free room up to the top address and counted from the
+                 .ihx's data records (the gaps between the vectors hold nothing)
   internal RAM   register banks, bit and data segments (direct, 0x00-0x7F),
                  indirect data (ISEG) and the stack reserve           (256 B)
-  XRAM           the on-chip expanded RAM (__xdata)                   (256 B)
+  XRAM           the on-chip expanded RAM (__pdata, __xdata)          (256 B)
 Exits 1 if any of them is over the chip's limit, if the linker reported
 an error, or if the image has initialised __xdata, which its start-up code
 (hal/mcs51/startup.asm) does not copy: the build must not produce an image
@@ -49,9 +51,22 @@ def parse_mem(path):
     info["stack_start"] = int(m.group(1), 16) if m else None
     m = re.search(r"ROM/EPROM/FLASH\s+0x([0-9a-fA-F]+)\s+0x([0-9a-fA-F]+)\s+(\d+)", text)
     info["code"] = int(m.group(3)) if m else None
-    m = re.search(r"EXTERNAL RAM\s+0x([0-9a-fA-F]+)\s+0x([0-9a-fA-F]+)\s+(\d+)", text)
-    info["xram_end"] = int(m.group(2), 16) + 1 if m else 0
+    # __pdata (PAGED EXT. RAM) and __xdata (EXTERNAL RAM) share the chip's 256 bytes of XRAM.
+    ends = [int(m.group(1), 16) + 1 for m in
+            re.finditer(r"(?:PAGED EXT\. RAM|EXTERNAL RAM)\s+0x[0-9a-fA-F]+\s+0x([0-9a-fA-F]+)\s+\d+", text)]
+    info["xram_end"] = max(ends, default=0)
     return info
+
+
+def ihx_bytes(path):
+    """The bytes the image's data records hold: what is written to flash,
+    without the gaps between the interrupt vectors."""
+    total = 0
+    for line in open(path):
+        line = line.strip()
+        if line.startswith(":") and line[7:9] == "00":
+            total += int(line[1:3], 16)
+    return total
 
 
 def main(argv):
@@ -82,7 +97,8 @@ def main(argv):
     xram = mem["xram_end"]
 
     rows = [
-        ("code", code, CODE_LIMIT, f"bytes of flash ({CODE_LIMIT - code:+d} free)"),
+        ("code", code, CODE_LIMIT, f"bytes of flash ({CODE_LIMIT - code:+d} free; "
+                                   f"{CODE_LIMIT - ihx_bytes(base + '.ihx')} counted from the .ihx's records)"),
         ("internal RAM", iram, IRAM_LIMIT,
          f"bytes: {banks} register banks + {data_end - banks} data up to 0x{data_end:02X} "
          f"(direct {direct_end}/128, ISEG {iseg[1]}) + {stack} stack reserve "

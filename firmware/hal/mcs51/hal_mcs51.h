@@ -12,7 +12,11 @@
 #define ROM __code
 /* C99 inline without extern: SDCC expands it and emits no unused copy. */
 #define INLINE inline
-#define XDATA __xdata
+/* The on-chip XRAM as __pdata: MOVX @Ri, one byte shorter than a DPTR load
+ * and no DPH to set, which the STC89C52RC's 256 bytes of XRAM answer at Ri
+ * whatever P2 holds (the keypad and the phase drives write P2).  s51 is set
+ * up the same way (tools/s51sim.py). */
+#define XDATA __pdata
 #define IDATA __idata
 /* Flags live in the bit-addressable RAM: setb/clr/jb are one instruction each. */
 #define FLAG __bit

@@ -7,7 +7,7 @@
 #include "../../core/protocol.h"
 #include "../../core/panel.h"
 
-static __xdata uint8_t tx_buf[TX_SIZE];
+static XDATA uint8_t tx_buf[TX_SIZE];
 static __data volatile uint8_t tx_head, tx_tail;
 static volatile __bit tx_busy;
 

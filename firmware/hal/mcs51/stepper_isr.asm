@@ -1052,21 +1052,18 @@ load_copy:
 	push	DPH
 	mov	Bs,#SEG_SIZE
 	mul	ab
-	add	a,#<_queue
-	mov	DPL,a
-	mov	a,Bs
-	addc	a,#>_queue
-	mov	DPH,a
+	add	a,#<_queue		; __pdata: the queue lies in one page (XDATA,
+	mov	r1,a			; hal_mcs51.h), the address is its low byte
 	mov	r0,#_st_seg
 	mov	r3,#(SEG_SIZE / 2)	; two bytes a turn: the load runs into the
 load_byte:				; next period, and this is most of it
-	movx	a,@dptr
+	movx	a,@r1
 	mov	@r0,a
-	inc	dptr
+	inc	r1
 	inc	r0
-	movx	a,@dptr
+	movx	a,@r1
 	mov	@r0,a
-	inc	dptr
+	inc	r1
 	inc	r0
 	djnz	r3,load_byte
 	clr	_st_line
