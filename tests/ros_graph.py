@@ -63,3 +63,39 @@ class Probe:
         self._spin.stop()
         self.node.destroy_node()
         rclpy.try_shutdown(context=self.context)
+
+
+class ActionPair:
+    """An action server and a client node in one context of the test process,
+    spun by a multi-threaded executor on a thread of its own.  Use as a
+    context manager; client_node makes the clients."""
+
+    def __init__(self, action_type, name: str, execute) -> None:
+        import rclpy
+        from rclpy.action import ActionServer
+        from rclpy.context import Context
+        from rclpy.executors import MultiThreadedExecutor
+        from plotter_bridge.nodes.spinning import SpinThread
+        self._context = Context()
+        rclpy.init(context=self._context)
+        self.server_node = rclpy.create_node("answers", context=self._context)
+        self.client_node = rclpy.create_node("asks", context=self._context)
+        self.server = ActionServer(self.server_node, action_type, name, execute)
+        executor = MultiThreadedExecutor(num_threads=4, context=self._context)
+        executor.add_node(self.server_node)
+        executor.add_node(self.client_node)
+        self._spin = SpinThread(executor)
+
+    def close(self) -> None:
+        import rclpy
+        self._spin.stop()
+        self.server.destroy()
+        self.server_node.destroy_node()
+        self.client_node.destroy_node()
+        rclpy.shutdown(context=self._context)
+
+    def __enter__(self) -> "ActionPair":
+        return self
+
+    def __exit__(self, *exc) -> None:
+        self.close()

@@ -205,13 +205,7 @@ def _memory_at_main(fill: int):
                 sim.cmd(f"set memory iram 0x{at:x} " + " ".join([f"0x{fill:02x}"] * 16))
         sim.cmd("set memory iram 0x08 " + " ".join([f"0x{fill:02x}"] * 8))
         sim.run_to(sim.sym["_main"])
-        out = sim.cmd("dump xram 0x0 0xff")
-        xram = []
-        for line in out.splitlines():
-            m = re.match(r"\s*0x[0-9a-f]+((?:\s+[0-9a-f]{2})+)", line)
-            if m:
-                xram += [int(v, 16) for v in m.group(1).split()]
-        return sim.iram(0x08, 248), bytes(xram[:256])
+        return sim.iram(0x08, 248), sim.dump("xram", 0, 256)
 
 
 def test_start_up_leaves_the_same_memory_whatever_the_ram_held_at_power_on():

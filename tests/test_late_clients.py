@@ -12,6 +12,7 @@ import warnings
 import pytest
 
 from node_processes import wait_until
+from ros_graph import ActionPair
 
 pytestmark = pytest.mark.ros
 
@@ -95,18 +96,8 @@ def test_installing_twice_wraps_once():
 def graph():
     """An action server counting the goals it runs and a client, in one
     context spun on a thread of its own."""
-    import rclpy
-    from rclpy.action import ActionServer
-    from rclpy.context import Context
-    from rclpy.executors import MultiThreadedExecutor
     from plotter_bridge.nodes.action_client import ActionClient
-    from plotter_bridge.nodes.spinning import SpinThread
     from plotter_interfaces.action import RunProgram
-
-    context = Context()
-    rclpy.init(context=context)
-    server_node = rclpy.create_node("answers_late", context=context)
-    client_node = rclpy.create_node("asks_early", context=context)
     ran = []
 
     def execute(goal_handle):
@@ -114,21 +105,10 @@ def graph():
         goal_handle.succeed()
         return RunProgram.Result(success=True, message=goal_handle.request.name)
 
-    server = ActionServer(server_node, RunProgram, "run_program_late", execute)
-    executor = MultiThreadedExecutor(num_threads=4, context=context)
-    executor.add_node(server_node)
-    executor.add_node(client_node)
-    spin = SpinThread(executor)
-    client = ActionClient(client_node, RunProgram, "run_program_late")
-    assert client.wait_for_server(10.0), "the test's own action server never appeared"
-    try:
+    with ActionPair(RunProgram, "run_program_late", execute) as pair:
+        client = ActionClient(pair.client_node, RunProgram, "run_program_late")
+        assert client.wait_for_server(10.0), "the test's own action server never appeared"
         yield client, ran
-    finally:
-        spin.stop()
-        server.destroy()
-        server_node.destroy_node()
-        client_node.destroy_node()
-        rclpy.shutdown(context=context)
 
 
 def _raw(method):

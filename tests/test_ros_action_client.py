@@ -11,6 +11,7 @@ import time
 import pytest
 
 from node_processes import wait_until
+from ros_graph import ActionPair
 
 pytestmark = pytest.mark.ros
 
@@ -39,17 +40,7 @@ def graph():
     """A context with an action server that finishes every goal at once, spun
     by a multi-threaded executor on a thread of its own; yields a function that
     makes a client of the given class on it."""
-    import rclpy
-    from rclpy.action import ActionServer
-    from rclpy.context import Context
-    from rclpy.executors import MultiThreadedExecutor
-    from plotter_bridge.nodes.spinning import SpinThread
     from plotter_interfaces.action import RunProgram
-
-    context = Context()
-    rclpy.init(context=context)
-    server_node = rclpy.create_node("answers", context=context)
-    client_node = rclpy.create_node("asks", context=context)
 
     def execute(goal_handle):
         goal_handle.succeed()
@@ -58,26 +49,13 @@ def graph():
         result.message = goal_handle.request.name
         return result
 
-    server = ActionServer(server_node, RunProgram, "run_program_race", execute)
-    executor = MultiThreadedExecutor(num_threads=4, context=context)
-    executor.add_node(server_node)
-    executor.add_node(client_node)
-    spin = SpinThread(executor)
-
-    def make(cls):
-        client = cls(client_node, RunProgram, "run_program_race")
-        assert client.wait_for_server(10.0), "the test's own action server never appeared"
-        client._client_handle = _SlowSend(client._client_handle)
-        return client
-
-    try:
+    with ActionPair(RunProgram, "run_program_race", execute) as pair:
+        def make(cls):
+            client = cls(pair.client_node, RunProgram, "run_program_race")
+            assert client.wait_for_server(10.0), "the test's own action server never appeared"
+            client._client_handle = _SlowSend(client._client_handle)
+            return client
         yield make
-    finally:
-        spin.stop()
-        server.destroy()
-        server_node.destroy_node()
-        client_node.destroy_node()
-        rclpy.shutdown(context=context)
 
 
 def _goal(name: str):

@@ -208,14 +208,18 @@ class Sim:
         m = re.search(r"Max value of stack pointer= 0x([0-9a-f]+)", self.cmd("state"))
         return int(m.group(1), 16)
 
-    def iram(self, addr, n):
-        out = self.cmd(f"dump iram 0x{addr:x} 0x{addr + n - 1:x}")
+    def dump(self, space, addr, n):
+        """n bytes of a memory space ("iram", "xram") from addr."""
+        out = self.cmd(f"dump {space} 0x{addr:x} 0x{addr + n - 1:x}")
         data = []
         for line in out.splitlines():
             m = re.match(r"\s*0x[0-9a-f]+((?:\s+[0-9a-f]{2})+)", line)
             if m:
                 data += [int(v, 16) for v in m.group(1).split()]
         return bytes(data[:n])
+
+    def iram(self, addr, n):
+        return self.dump("iram", addr, n)
 
     def set_iram(self, addr, data):
         self.cmd(f"set memory iram 0x{addr:x} " + " ".join(f"0x{b:02x}" for b in data))
