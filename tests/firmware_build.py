@@ -62,3 +62,19 @@ def require_s51() -> None:
         if os.environ.get("CI") == "true":
             pytest.fail(reason + " - required on CI", pytrace=False)
         pytest.skip(reason)
+
+
+# A step pulse waits for the instruction under way or a masked copy of a multi-byte value: within
+# this many machine cycles of the schedule when the UART is quiet.
+QUIET_LATENCY = 32
+
+
+def uart_step_delay(base: Path) -> int:
+    """Machine cycles a step pulse may wait beyond QUIET_LATENCY while the UART works: the
+    interrupts the chip takes before the step timer's at their shared level (the e-stop's and the
+    UART's, firmware/tools/isr_share.py Arbitration), counted from the image's listings."""
+    import sys
+    sys.path.insert(0, str(FIRMWARE / "tools"))
+    import isr_share
+    import s51sim
+    return isr_share.arbitration(s51sim.Symbols(base)).uart_delay()

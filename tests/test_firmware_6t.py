@@ -22,7 +22,7 @@ import sys
 
 import pytest
 
-from firmware_build import FIRMWARE, require_s51
+from firmware_build import FIRMWARE, QUIET_LATENCY, require_s51, uart_step_delay
 
 sys.path.insert(0, str(FIRMWARE / "tools"))
 import s51sim  # noqa: E402
@@ -79,14 +79,17 @@ def lines(image6t, tmp_path_factory):
     }
 
 
-def test_line_steps_at_the_commanded_rate(lines):
+def test_line_steps_at_the_commanded_rate(lines, image6t):
     t = lines["6t"]
     assert len(t) == 2000
     gaps = [b - a for a, b in zip(t, t[1:])]
     cruise = gaps[len(gaps) // 4:3 * len(gaps) // 4]
-    # 1843 cycles of 1/1,843,200 s: 0.99995 ms, within the interrupt latency
+    # 1843 cycles of 1/1,843,200 s: 0.99995 ms, within the interrupt latency and, while the
+    # status polls make the UART work, one UART interrupt: a late pulse lengthens one interval and
+    # shortens the next
     assert statistics.median(cruise) == pytest.approx(1 / FEED, rel=2e-4)
-    assert max(cruise) - min(cruise) < 10e-6
+    cycles_per_s = s51sim.CLOCK_HZ_6T / 12
+    assert max(cruise) - min(cruise) <= 2 * (QUIET_LATENCY + uart_step_delay(image6t)) / cycles_per_s
 
 
 def test_line_takes_as_long_as_at_12t(lines):

@@ -24,7 +24,7 @@ import sys
 import pytest
 
 import vcd_trace
-from firmware_build import FIRMWARE, host_library, mcu_image, require_s51
+from firmware_build import FIRMWARE, QUIET_LATENCY, host_library, mcu_image, require_s51, uart_step_delay
 from plotter_bridge.sim.firmware_core import FirmwareCore
 
 sys.path.insert(0, str(FIRMWARE / "tools"))
@@ -140,20 +140,22 @@ def test_pulses_trace_the_host_cores_path(run):
 
 def test_pulse_timing_matches_the_schedule(run):
     """Each interval between pulses is the host core's within the interrupt
-    latency: a few cycles for the instruction the interrupt waits for, up to
-    ~25 when a status request masks interrupts to copy the position.  And
-    the intervals add up to the host's total within the same bound: the
-    timer reload of the 8051 HAL (TIMER_STOPPED_CYCLES) keeps the schedule
-    without drift over the whole run."""
+    latency: a few cycles for the instruction the interrupt waits for, more
+    when a status request masks interrupts to copy a value, and, while the
+    UART works (the run is polled with `?`), one UART interrupt the chip
+    takes first at their shared level.  And the intervals add up to the
+    host's total within the latency: the timer reload of the 8051 HAL
+    (TIMER_STOPPED_CYCLES) keeps the schedule without drift over the whole
+    run."""
     want, _ = host_steps()
     got = board_steps(run["vcd"])
     w = [s[2] for s in want if s[0] != "pen"][1:]
     g = [s[2] for s in got if s[0] != "pen"][1:]
     assert len(w) == len(g)
     deviations = sorted(abs(a - b) for a, b in zip(g, w))
-    assert deviations[-1] <= 32, deviations[-1]
+    assert deviations[-1] <= QUIET_LATENCY + uart_step_delay(mcu_image()), deviations[-1]
     assert deviations[len(deviations) // 2] <= 3          # typically 0..5
-    assert abs(sum(g) - sum(w)) <= 32
+    assert abs(sum(g) - sum(w)) <= QUIET_LATENCY
 
 
 def test_stack_stays_within_its_reserve(run):

@@ -102,12 +102,14 @@ def lines_of(command):
     return [line.strip() for line in command.split(";")]
 
 
-def measure(sim, command, saturate, before_run=None):
+def measure(sim, command, saturate, before_run=None, stream=b""):
     """Run one command to its end with the VCD recording.  The command is
     queued under a feed hold and released with `~`, so that it can be
     changed in the queue before the motion starts (the simulator stops
     long after it is asked to).  before_run(sim): called with the simulator
-    stopped, just before the run is released."""
+    stopped, just before the run is released.  stream: bytes written to the
+    board's UART right after the release, which s51 takes in at the baud
+    rate while the run goes on."""
     offs = segment_offsets(s51sim.FIRMWARE / "core" / "segment.h")
     sim.go()
     sim.write(b"!!?")
@@ -132,7 +134,7 @@ def measure(sim, command, saturate, before_run=None):
         before_run(sim)
     sim.vcd_start()
     sim.go()
-    sim.write(b"~~")
+    sim.write(b"~~" + stream)
     sim.wait_stop(timeout=300)
     sim.vcd_stop()
 
@@ -216,8 +218,8 @@ SWEEP = {
 }
 
 
-def run(base, clock_hz, command, saturate):
-    """Step intervals and ISR cycles of one command in s51."""
+def run(base, clock_hz, command, saturate, stream=b""):
+    """Step intervals and ISR cycles of one command in s51 (stream: see measure)."""
     with tempfile.TemporaryDirectory() as tmp:
         vcd = str(Path(tmp) / "trace.vcd")
         with s51sim.Sim(base, vcd=vcd, clock_hz=clock_hz) as sim:
@@ -225,7 +227,7 @@ def run(base, clock_hz, command, saturate):
             sim.go()
             sim.read_until(rb"ready[^\n]*\n")
             sim.stop()
-            measure(sim, command, saturate)
+            measure(sim, command, saturate, stream=stream)
         return analyse(vcd, overhead, clock_hz)
 
 

@@ -84,7 +84,8 @@ def main(out, cycles_per_s=CYCLES_PER_S):
         f"/* periods in machine cycles at {cycles_per_s} cycles/s;",
         f"   trapezoid: R0={R0} DR={DR} steps/s per level, {DT_TRAP*1000:g} ms per level;",
         f"   exponential: tau={TAU*1000:.1f} ms, {DT_EXP*1000:.2f} ms per level; RMAX={RMAX} */",
-        f"#if RAMP_LEVELS != {LEVELS} || RAMP_SHAPES != 2 || RAMP_ACCEL_TRAP != {accel} || RAMP_R0 != {R0} || RAMP_TOP != {RMAX}",
+        f"#if RAMP_LEVELS != {LEVELS} || RAMP_SHAPES != 2 || RAMP_ACCEL_TRAP != {accel} || RAMP_R0 != {R0} "
+        f"|| RAMP_TOP != {RMAX}",
         "#error core/ramp.h does not match tools/gen_ramp.py",
         "#endif",
         f"#if RAMP_HI_LEVELS != {hi_n}",

@@ -218,6 +218,11 @@ class Sim:
                 data += [int(v, 16) for v in m.group(1).split()]
         return bytes(data[:n])
 
+    def sfr(self, addr):
+        """The special function register at addr (s51 dumps it by name, in binary and hex)."""
+        out = self.cmd(f"dump sfr 0x{addr:x} 0x{addr:x}")
+        return int(re.search(r"0b[01]{8} 0x([0-9a-f]{2})", out).group(1), 16)
+
     def iram(self, addr, n):
         return self.dump("iram", addr, n)
 

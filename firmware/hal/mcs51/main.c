@@ -72,11 +72,18 @@ void hal_putc(uint8_t c)
 #define TMOD_INIT 0x21
 #endif
 /* Timer 1 runs (TR1) for the baud rate or the panel's tick; the panel's
- * e-stop (INT0) is edge-triggered (IT0).  The step timer and the e-stop
- * have the high priority, the UART the low; they run once EA is set. */
+ * e-stop (INT0) is edge-triggered (IT0).  They run once EA is set.
+ * The board's image: the step timer, the UART and the e-stop share the high
+ * level, so none interrupts another, and when one returns the chip takes
+ * the pending ones in polling order, INT0, the UART, Timer 2.  A received
+ * byte then waits for at most the one interrupt under way, so steps joined
+ * at speed (back-to-back segment loads) cannot shut the UART out for a
+ * byte time, as a step timer above the UART could; a step waits for at
+ * most one UART interrupt (tools/isr_share.py counts both).  The option
+ * images: the step timer (Timer 0) and the e-stop high, the UART low. */
 #if defined(HAL_STEPPER_ISR_EXTERNAL)
 #define TCON_INIT 0x51              /* TR1, TR0 (the tick), IT0 */
-#define IP_INIT   0x21              /* PT2, PX0 */
+#define IP_INIT   0x31              /* PT2, PS, PX0 */
 #define IE_INIT   0x31              /* ET2, ES, EX0 */
 #elif defined(PANEL)
 #define TCON_INIT 0x41              /* TR1, IT0 */
