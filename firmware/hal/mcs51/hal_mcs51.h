@@ -119,10 +119,13 @@ __sfr16 __at(0x8C8A) TMR0;
  * raised this one: add r to the stopped timer.  A carry out means the
  * moment has passed already (this interrupt started late, or the step rate
  * is more than the CPU can do): then fire again at once rather than a whole
- * timer turn later.  Assembler because it runs once per step: 10 cycles,
+ * timer turn later.  Assembler because it runs once per step: 12 cycles,
  * where SDCC's code for the same took 21.  r must be a 16-bit variable in
- * direct RAM. */
+ * direct RAM.  Interrupts are masked while the timer is stopped: the UART
+ * and the e-stop interrupt this one (IP, main.c), and a halt of theirs
+ * (HAL_TIMER_HALT) between the clr and the setb would be undone. */
 #define HAL_TIMER_ADVANCE(r) __asm__(                                        \
+        "\tclr\t_EA\n"                                                       \
         "\tclr\t_TR0\n"                                                      \
         "\tmov\ta,_TL0\n"                                                    \
         "\tadd\ta,_" #r "\n"                                                  \
@@ -133,7 +136,8 @@ __sfr16 __at(0x8C8A) TMR0;
         "\tjnc\t.+8\n"                                                       \
         "\tmov\t_TL0,#0xff\n"                                                \
         "\tmov\t_TH0,#0xff\n"                                                \
-        "\tsetb\t_TR0\n")
+        "\tsetb\t_TR0\n"                                                     \
+        "\tsetb\t_EA\n")
 #define HAL_TIMER_START(p) do {                                              \
         TR0 = 0;                                                             \
         TMR0 = (uint16_t)(0 - (uint16_t)(p));                                \

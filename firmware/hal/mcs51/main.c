@@ -79,15 +79,19 @@ void hal_putc(uint8_t c)
  * byte then waits for at most the one interrupt under way, so steps joined
  * at speed (back-to-back segment loads) cannot shut the UART out for a
  * byte time, as a step timer above the UART could; a step waits for at
- * most one UART interrupt (tools/isr_share.py counts both).  The option
- * images: the step timer (Timer 0) and the e-stop high, the UART low. */
+ * most one UART interrupt (tools/isr_share.py counts both).  The images
+ * with the C step interrupt on Timer 0: polling order puts Timer 0 before
+ * the UART, so at one level a saturated step timer would still shut it
+ * out; there the UART and the e-stop are above the step timer, and the
+ * interrupt masks them only while it reloads the timer
+ * (HAL_TIMER_ADVANCE). */
 #if defined(HAL_STEPPER_ISR_EXTERNAL)
 #define TCON_INIT 0x51              /* TR1, TR0 (the tick), IT0 */
 #define IP_INIT   0x31              /* PT2, PS, PX0 */
 #define IE_INIT   0x31              /* ET2, ES, EX0 */
 #elif defined(PANEL)
 #define TCON_INIT 0x41              /* TR1, IT0 */
-#define IP_INIT   0x03              /* PT0, PX0 */
+#define IP_INIT   0x11              /* PS, PX0 */
 #define IE_INIT   0x13              /* ES, ET0, EX0 */
 #else
 #ifdef BAUD_115200
@@ -95,7 +99,7 @@ void hal_putc(uint8_t c)
 #else
 #define TCON_INIT 0x40
 #endif
-#define IP_INIT   0x02
+#define IP_INIT   0x10              /* PS */
 #define IE_INIT   0x12
 #endif
 
