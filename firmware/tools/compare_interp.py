@@ -66,7 +66,7 @@ def run(base, command, end, vcd):
         sim.go()
         sim.read_until(rb"ready[^\n]*\n")
         sim.stop()
-        stop, = sim.sym.instructions("stepper", "_stepper_isr", "clr", "_st_running")
+        stop, = sim.sym.instructions(bench.isr_module(sim.sym), "_stepper_isr", "clr", "_st_running")
         sim.cmd(f"tbreak 0x{stop:x}")
         sim.vcd_start()
         sim.go()
@@ -102,6 +102,14 @@ def decode(vcd, overhead):
                 dy = ((-1 if v & Y_DIR else 1) if rising & Y_STEP else 0)
                 steps.append((s51sim.cycles(t), dx, dy))
         prev = v
+    if overhead is None:
+        # The hand-written interrupt (the board's image) keeps no register bank of its own to
+        # trace: one axis step per iteration, each interrupt the time to the next pulse less the
+        # main-loop instruction between (saturated, they run back to back; paced, only the count
+        # is used).
+        times = [t for t, _, _ in steps]
+        gaps = [b - a - 1 for a, b in zip(times, times[1:])]
+        return steps, list(zip(times, gaps + gaps[-1:]))
     isr, start = [], None
     for t, v in ev["PSW.3"]:
         if v and start is None:
