@@ -102,11 +102,6 @@ def test_line_takes_as_long_as_at_12t(lines):
     assert statistics.mean(c6) == pytest.approx(statistics.mean(c12), rel=1e-3)
 
 
-def sfr(sim, addr):
-    out = sim.cmd(f"dump sfr 0x{addr:x} 0x{addr:x}")
-    return int(re.search(rf"^0x{addr:x} \w+:.*?\b0x([0-9a-f]{{2}})\b", out, re.M).group(1), 16)
-
-
 def test_uart_answers_at_9600_baud(image6t):
     clock = s51sim.CLOCK_HZ_6T
     with s51sim.Sim(image6t, clock_hz=clock) as sim:
@@ -119,7 +114,7 @@ def test_uart_answers_at_9600_baud(image6t):
         # a byte at either clock), so the rate is worked out from the
         # registers as the chip has them set: Timer 1 in mode 2 overflowing
         # 32 times a bit (16 with PCON.SMOD), Timer 2 not the baud source.
-        tmod, th1, pcon, t2con, scon = (sfr(sim, a) for a in (0x89, 0x8D, 0x87, 0xC8, 0x98))
+        tmod, th1, pcon, t2con, scon = (sim.sfr(a) for a in (0x89, 0x8D, 0x87, 0xC8, 0x98))
     assert re.search(rb"<Idle X0 Y0 ", status), status
     assert scon & 0xC0 == 0x40                       # mode 1: 10 bits a byte
     assert tmod & 0xF0 == 0x20                       # Timer 1: 8-bit auto-reload

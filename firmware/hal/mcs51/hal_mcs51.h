@@ -1,6 +1,6 @@
 /* hal_mcs51.h - the core's hardware layer on the STC89C52RC.
- * Timer 2 (Timer 0 in the option images and with BAUD=115200; high
- * priority) paces the steps; port 1 carries step,
+ * Timer 2 (Timer 0 in the option images and with BAUD=115200; their
+ * priorities: IP in main.c) paces the steps; port 1 carries step,
  * direction and pen outputs (firmware/README.md has the pin map). */
 #ifndef HAL_MCS51_H
 #define HAL_MCS51_H
