@@ -21,10 +21,12 @@
 
 /* Step period of each level as HAL_PERIOD(machine cycles), low and high
  * byte.  The high byte only up to the last period of 256 cycles or more:
- * from index RAMP_HI_LEVELS on it is RAMP_HI_SHORT (tools/gen_ramp.py
- * checks the count). */
+ * from index RAMP_HI_LEVELS on it is RAMP_HI_SHORT, the high byte every
+ * period under 256 cycles shares in the timer's form (tools/gen_ramp.py
+ * checks the count, and the table that each of those periods has it).  Taken
+ * at 255, not 1: Timer 0's form (9 - p) has a different high byte below 10. */
 #define RAMP_HI_LEVELS 33
-#define RAMP_HI_SHORT ((uint8_t)(HAL_PERIOD(1) >> 8))
+#define RAMP_HI_SHORT ((uint8_t)(HAL_PERIOD(255) >> 8))
 /* The period of a level from its two bytes.  The periods are 12-clock
  * machine cycles: an image for the chip's 6-clock mode counts twice as
  * many (HAL_PERIOD(p) is -p or p there, which double as p does). */

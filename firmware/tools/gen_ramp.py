@@ -61,11 +61,14 @@ def tables(cycles_per_s=CYCLES_PER_S):
     return {"trap": shape(trap, DT_TRAP, cycles_per_s), "exp": shape(expo, DT_EXP, cycles_per_s)}
 
 
+def both_periods(t):
+    """The periods of both shapes interleaved, as the tables index them."""
+    return [v for pair in zip(t["trap"][0], t["exp"][0]) for v in pair]
+
+
 def hi_levels(cycles_per_s=CYCLES_PER_S):
     """Entries of the high-byte table: up to the last period >= 256 cycles."""
-    t = tables(cycles_per_s)
-    both = [v for pair in zip(t["trap"][0], t["exp"][0]) for v in pair]
-    return 1 + max(i for i, p in enumerate(both) if p >= 256)
+    return 1 + max(i for i, p in enumerate(both_periods(tables(cycles_per_s))) if p >= 256)
 
 
 def rows(vals, fmt=str):
@@ -103,6 +106,13 @@ def main(out, cycles_per_s=CYCLES_PER_S):
         lines += [f"RAMP_ROM uint8_t {name}[{size}] = {{",
                   "    /* level 0 trapezoid, level 0 exponential, level 1 trapezoid, ... */",
                   rows(both, fmt), "};"]
+    short = [v for v in both_periods(t)[hi_n:]]
+    # The high byte every period past the table shares, in the timer's form
+    # of this image: checked by the compiler (a negative array size), as
+    # HAL_PERIOD differs between the images and #if cannot take its casts.
+    lines += ["/* Every period past ramp_period_hi has the high byte RAMP_HI_SHORT. */",
+              f"typedef char ramp_hi_short_check[(HI({min(short)}) == RAMP_HI_SHORT "
+              f"&& HI({max(short)}) == RAMP_HI_SHORT) ? 1 : -1];"]
     assert t["trap"][1][-1] == t["exp"][1][-1] == RMAX
     text = "\n".join(lines) + "\n"
     with open(out, "w") as f:
