@@ -48,6 +48,12 @@ def test_the_planner_caps_an_arcs_feed_and_the_host_knows_the_cap():
     from plotter_bridge.link.protocol import MAX_ARC_RATE, MAX_RATE
     from isr_share import ARC_TOP as arc_top, RAMP_TOP as ramp_top     # read from core/ramp.h
     assert (MAX_ARC_RATE, MAX_RATE) == (arc_top, ramp_top)
+    from plotter_bridge.sim.firmware_core import FirmwareCore
+    core = FirmwareCore(host_library())          # the board's build, as the mock board runs it
+    try:
+        assert core.feed_caps == (MAX_RATE, MAX_ARC_RATE)
+    finally:
+        core.close()
     cycles_per_s = 11059200 // 12
     for command in ("A 0 0 1500 0 12850", "C 0 0 0 3000 9000", "A -2561 1061 -1500 0 5001"):
         assert min(bench.host_schedule(host_library(), command)) == round(cycles_per_s / arc_top), command

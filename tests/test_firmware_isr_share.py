@@ -14,9 +14,10 @@ import sys
 
 import pytest
 
-from firmware_build import FIRMWARE, host_library, mcu_image, require_s51
+from firmware_build import FIRMWARE, QUIET_LATENCY, host_library, mcu_image, require_s51
 
 sys.path.insert(0, str(FIRMWARE / "tools"))
+import bench  # noqa: E402
 import isr_loads  # noqa: E402
 import isr_share  # noqa: E402
 import s51sim  # noqa: E402
@@ -169,3 +170,43 @@ def test_a_streaming_link_costs_the_steps_at_most_a_period_a_byte_time(command):
     period = isr_share.CYCLES_PER_S / isr_share.feed_of(command)
     window = 10 * isr_share.CYCLES_PER_S / isr_share.BAUD
     assert -isr_share.LATENCY <= more <= period * quiet / window, (quiet, more, period)
+
+
+# The images with core/stepper.c's interrupt on Timer 0, one of each interpolation method (the
+# BAUD=115200 image is point-by-point with the front panel), at their own caps (core/ramp.h).
+C_ISR_IMAGES = [{"BAUD": "115200"}, {"INTERP": "dda"}, {"INTERP": "compare"}]
+
+
+@pytest.mark.parametrize("options", C_ISR_IMAGES, ids=lambda o: "-".join(o.values()))
+def test_the_c_interrupt_images_at_their_caps_leave_the_main_loop_its_time_and_keep_the_schedule(options):
+    """Their caps are below the board's (the C interrupt costs more an iteration), and at them every
+    line and arc keeps the share and the cruising steps their periods (isr_share.CIsrFigures), and
+    each run takes the host core's schedule: a run the interrupt cannot keep up with, or a period
+    the timer takes a whole turn for, would be longer."""
+    require_s51()
+    base = mcu_image(**options)
+    library = host_library(**options)
+    line, arc = isr_share.image_caps(base)
+    assert arc < line < isr_share.RAMP_TOP and arc < isr_share.ARC_TOP
+    figures = isr_share.measure_c_isr(base)
+    assert len(figures) == 8 and all(f.ok() for f in figures), figures
+    assert {f.feed for f in figures if "line" in f.name} == {line}
+    assert {f.feed for f in figures if "arc" in f.name} == {arc}
+    for f in figures:
+        if f.cruising:
+            planned = sum(bench.host_schedule(library, f.command))
+            assert planned <= f.run_cycles <= planned + 2 * f.period + 64, (f, planned)
+    # The image's planner caps a faster feed there: a line asking for the ramp's top cruises at the
+    # cap's period (the tenth shortest interval: a DDA iteration may step nothing).
+    intervals, _ = bench.run(base, s51sim.CLOCK_HZ, f"L 6000 0 {isr_share.RAMP_TOP}", False)
+    assert abs(sorted(intervals)[len(intervals) // 10] - isr_share.CYCLES_PER_S / line) <= QUIET_LATENCY
+
+
+def test_the_c_interrupt_criteria_can_fail():
+    """A share over two thirds fails anywhere; an interrupt over two periods fails a cruising path,
+    not a segment load's."""
+    ok = isr_share.CIsrFigures("line along X", "L", 3000, 0.5, 300, 0)
+    assert ok.ok()
+    assert not isr_share.CIsrFigures("line along X", "L", 3000, 0.7, 300, 0).ok()
+    assert not isr_share.CIsrFigures("line along X", "L", 3000, 0.5, 700, 0).ok()
+    assert isr_share.CIsrFigures("short lines, a segment load every 40 steps", "L", 3000, 0.5, 700, 0).ok()

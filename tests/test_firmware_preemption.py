@@ -8,8 +8,9 @@ it again: a halt in between would be started again), so the reload masks
 interrupts.  Checked in s51 on the BAUD=115200 image, which has the e-stop
 pin: at each instruction of the reload in turn, the running move is stopped
 there, the e-stop pin pulled low, and the move must stop for good.  The
-move asks for the ramp's top rate, more than this interrupt can do, so that
-the reload also takes its path for a late interrupt."""
+move's cruise period is cut in the queue far below what this interrupt can
+do (the image caps a feed where it keeps up), so that the reload also takes
+its path for a late interrupt."""
 import sys
 import time
 
@@ -18,6 +19,7 @@ import pytest
 from firmware_build import FIRMWARE, mcu_image, require_s51
 
 sys.path.insert(0, str(FIRMWARE / "tools"))
+import bench  # noqa: E402
 import isr_share  # noqa: E402
 import s51sim  # noqa: E402
 
@@ -66,7 +68,15 @@ def test_an_e_stop_at_any_instruction_of_the_timer_reload_stops_the_move(image):
         with s51sim.Sim(image) as sim:
             sim.go()
             sim.read_until(rb"ready[^\n]*\n")
+            # Queued under a hold with its cruise period cut far below the interrupt's cost: the
+            # image caps a line where its interrupt keeps up, and the late path runs only beyond.
+            sim.write(b"!!?")
+            sim.read_until(rb"<Hold[^\n]*\n")
             assert sim.line(f"L 30000 0 {isr_share.RAMP_TOP}").startswith("ok")
+            sim.stop()
+            bench.saturate_queue(sim)
+            sim.go()
+            sim.write(b"~~")
             sim.stop()
             sim.run_to(addr, timeout=120)           # the late path: near the top of the climb
             sim.cmd("set hw port[3] 0xfb")   # INT0 (P3.2) falls

@@ -47,14 +47,14 @@ def send(core: FirmwareCore, line: str) -> str:
     return re.sub(r" \*\d+$", "", reply)
 
 
-def climb(steps: list[Step], upto: float = 0.9) -> list[tuple[float, float]]:
+def climb(steps: list[Step], upto: float = 0.9, top: float = TOP) -> list[tuple[float, float]]:
     """(seconds since the first step, steps/s) of each step interval until the
     rate reaches `upto` of the top (the first interval is the start's)."""
     out, t = [], 0.0
     for s in steps[1:]:
         t += s.cycles / CYCLES_PER_S
         rate = CYCLES_PER_S / s.cycles
-        if rate >= TOP * upto:
+        if rate >= top * upto:
             return out
         out.append((t, rate))
     raise AssertionError("never reached the top rate")
@@ -136,15 +136,19 @@ def test_a_stop_ends_at_the_start_rate_as_a_start_begins(core, shape, divisor):
                          ids=["dda", "compare", "zaxis"])
 def test_the_option_images_have_both_ramps(options):
     """Their ramps count step interrupts (iterations, README.md): the
-    interrupts' own periods follow the curve `$1` picks."""
+    interrupts' own periods follow the curve `$1` picks, up to the image's
+    cap for a line (core/ramp.h LINE_TOP, below the ramp's top)."""
     core = FirmwareCore(host_library(**options))
     try:
+        cap = core.feed_caps[0]
+        assert cap < TOP
         for shape, when in ((1, exponential_time), (0, trapezoid_time), (1, exponential_time)):
             assert send(core, f"$1={shape}").startswith("ok")
             x = core.position[0]
             dues = list(core.interrupts([f"L 8000 0 {TOP}"]))
             assert core.position == (x + 8000, 0)
-            up = climb([Step(1, 0, due) for due in dues])
+            assert abs(CYCLES_PER_S / sorted(dues)[len(dues) // 2] - cap) <= 0.01 * cap   # cruising at it
+            up = climb([Step(1, 0, due) for due in dues], top=cap)
             assert time_error(up, when) <= 3 * (gen_ramp.DT_EXP if shape else gen_ramp.DT_TRAP)
         assert send(core, "$1=2") == "err E11"
     finally:

@@ -96,7 +96,7 @@ static uint8_t commit(void)
  * by shift and subtract, the quotient shifting in where the dividend shifts
  * out: it needs no library division, and with CYCLES_PER_S < FEED_MIN * 2^16
  * the quotient fits 16 bits. */
-#if CYCLES_PER_S >= FEED_MIN * 65536UL || RAMP_TOP > 32767
+#if CYCLES_PER_S >= FEED_MIN * 65536UL || LINE_TOP > 32767 || ARC_TOP > LINE_TOP
 #error period_of: the quotient or the feed outgrows 16 bits
 #endif
 static uint16_t period_of(uint16_t f)
@@ -227,7 +227,7 @@ uint8_t planner_line(void)
 #ifdef ZAXIS
     plan.c = 0;                     /* not a Z move */
 #endif
-    return plan_motion(RAMP_TOP);
+    return plan_motion(LINE_TOP);
 }
 
 #ifdef ZAXIS
@@ -245,7 +245,7 @@ uint8_t planner_z(void)
     plan.a = 0;
     plan.c = 1;
     plan.steps = plan.b;
-    return plan_motion(RAMP_TOP);
+    return plan_motion(LINE_TOP);
 }
 #endif
 

@@ -415,7 +415,7 @@ static uint8_t cmd_setting(void)
     }
     if (*cur == 'I' && cur + 1 == end) {
         put_str("[" FW_NAME " " FW_VERSION " Q" XSTR(QUEUE_SIZE) " B" XSTR(RX_SIZE)
-                " R" XSTR(RAMP_R0) " T" XSTR(RAMP_TOP) " A" XSTR(RAMP_ACCEL_TRAP) "]");
+                " R" XSTR(RAMP_R0) " T" XSTR(LINE_TOP) " A" XSTR(RAMP_ACCEL_TRAP) "]");
         put_eol();
         return E_OK;
     }

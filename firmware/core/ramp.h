@@ -39,16 +39,37 @@ extern RAMP_ROM uint8_t  ramp_period_lo[RAMP_SHAPES * RAMP_LEVELS];
 extern RAMP_ROM uint8_t  ramp_period_hi[RAMP_HI_LEVELS];
 extern RAMP_ROM uint8_t  ramp_hold[RAMP_SHAPES * RAMP_LEVELS];   /* steps per level at multiplier 1 */
 
-/* The start and top rates of both shapes, steps/s: the top is the
- * fastest feed a line may ask for.  The planner finds the level of any
- * other rate by the periods, so no table of rates is kept.  Arcs stop at
- * ARC_TOP: an arc step costs the interrupt about 90 cycles and its turn
- * into the final quadrant about 315-350 (README.md, make share), which at
- * ARC_TOP leaves the UART and the main loop half the CPU and never spans
- * two periods (184 cycles), so no period of the timer is lost. */
+/* The start and top rates of both shapes, steps/s.  The planner finds
+ * the level of any other rate by the periods, so no table of rates is
+ * kept. */
 #define RAMP_R0  250
 #define RAMP_TOP 12850
+
+/* The fastest feeds a line (LINE_TOP) and an arc (ARC_TOP) may ask for,
+ * iterations (step interrupts) per second: where the image's step
+ * interrupt leaves the UART and the main loop their part of the CPU
+ * (firmware/README.md, make share).  The board's hand-written interrupt
+ * (STEPPER_ASM) keeps lines to the ramp's top; an arc step costs it about
+ * 90 cycles and its turn into the final quadrant about 315-350, which at
+ * 5000 leaves half the CPU and never spans two periods (184 cycles).
+ * core/stepper.c's interrupt (the option images and BAUD=115200) costs
+ * more an iteration, by method (a cruising line's longest, an arc's
+ * median, with the slowest drive, make share DRIVE=unipolar): point by
+ * point 105 cycles and 171; DDA 165 and 196; comparison-integration 145
+ * and 274.  Its caps keep them to 60 % of the period or less. */
+#if defined(STEPPER_ASM)
+#define LINE_TOP RAMP_TOP
 #define ARC_TOP  5000
+#elif defined(INTERP_DDA)
+#define LINE_TOP 3300
+#define ARC_TOP  2600
+#elif defined(INTERP_COMPARE)
+#define LINE_TOP 3800
+#define ARC_TOP  2000
+#else
+#define LINE_TOP 5200
+#define ARC_TOP  3200
+#endif
 
 /* A level is handled as its index: the step interrupt reads the tables
  * with it as it is, one level up or down is RAMP_STEP, and the levels of

@@ -102,6 +102,17 @@ def lines_of(command):
     return [line.strip() for line in command.split(";")]
 
 
+def saturate_queue(sim, offs=None):
+    """A cruise period far below what the interrupt needs, written into the
+    queued segments of a stopped simulator: from the cruise level on, the
+    interrupt runs back to back.  In every queue slot (7 of 22 bytes,
+    core/planner.h): the command's is one of them."""
+    offs = offs or segment_offsets(s51sim.FIRMWARE / "core" / "segment.h")
+    for slot in range(7):
+        addr = sim.sym["_queue"] + 22 * slot + offs["cruise_period"]
+        sim.cmd(f"set memory xram 0x{addr:x} 0xff 0xff")
+
+
 def measure(sim, command, saturate, before_run=None, stream=b""):
     """Run one command to its end with the VCD recording.  The command is
     queued under a feed hold and released with `~`, so that it can be
@@ -121,12 +132,7 @@ def measure(sim, command, saturate, before_run=None, stream=b""):
             raise RuntimeError(f"{line!r}: {reply!r}")
     sim.stop()
     if saturate:
-        # A cruise period far below what the interrupt needs: from the
-        # cruise level on, it runs back to back.  In every queue slot
-        # (7 of 22 bytes, core/planner.h): the command's is one of them.
-        for slot in range(7):
-            addr = sim.sym["_queue"] + 22 * slot + offs["cruise_period"]
-            sim.cmd(f"set memory xram 0x{addr:x} 0xff 0xff")
+        saturate_queue(sim, offs)
     # The end of the motion: the interrupt finds the queue empty and stops.
     stop, = sim.sym.instructions(isr_module(sim.sym), "_stepper_isr", "clr", "_st_running")
     sim.cmd(f"tbreak 0x{stop:x}")

@@ -10,7 +10,7 @@ a line `L 3000 1700` and a full circle of radius 1000 (`A 0 0 1000 0`),
 recording port 1 and PSW.3 (set only inside the step interrupt) as a VCD
 trace, twice:
 
-- paced: at a feed of 3000 iterations/s, where the timer sets every
+- paced: at a feed of 2000 iterations/s, where the timer sets every
   interrupt's moment: the path rebuilt from the pulses and its largest
   distance from the ideal line or circle; how evenly each axis steps (the
   largest gap between two pulses on one axis against their mean, on the
@@ -18,8 +18,10 @@ trace, twice:
   around it where that axis moves at least half its top speed), and the
   largest gap between pulses of either axis in interrupt periods (an
   iteration that steps neither axis);
-- saturated: at the ramp's top rate, more than the CPU can do, so that the
-  interrupts run back to back at cruise: the interrupt's own cycles per
+- saturated: the cruise period overwritten in the queue by one far below
+  what the CPU can do (each image caps a feed where its interrupt keeps
+  up), so that the interrupts run back to back at cruise: the interrupt's
+  own cycles per
   iteration (PSW.3 plus its fixed entry and exit, as tools/bench.py counts
   them), the cycles from one interrupt to the next, and the speed along the
   path in steps/s (the ideal path's length covered per second over the
@@ -43,8 +45,8 @@ import s51sim  # noqa: E402
 METHODS = [("pbp", "point-by-point comparison"), ("dda", "DDA"), ("compare", "comparison-integration")]
 LINE = (3000, 1700)
 RADIUS = 1000
-PACED_FEED = 3000
-TOP_FEED = 12850                      # the ramp's top rate ($I field T)
+PACED_FEED = 2000                     # under every image's caps (core/ramp.h)
+TOP_FEED = 12850                      # the ramp's top rate ($I field T), then saturated
 CYCLES_PER_S = 921600
 X_STEP, X_DIR, Y_STEP, Y_DIR = 0x01, 0x02, 0x04, 0x08
 REPLY = rb"(?:ok|err|rs)[^\r\n]*\r\n"
@@ -58,24 +60,30 @@ def image(method):
     return base
 
 
-def run(base, command, end, vcd):
+def run(base, command, end, vcd, saturate=False):
     """Run one command to its end (the step interrupt finding the queue
-    empty) with the VCD recording on."""
+    empty) with the VCD recording on; saturated: with its cruise period
+    overwritten in the queue by one far shorter than the interrupt
+    (tools/bench.py), as each image caps a feed where its interrupt
+    keeps up."""
     with s51sim.Sim(base, vcd=vcd, timeout=60) as sim:
         overhead = bench.isr_overhead(sim.sym)
         sim.go()
         sim.read_until(rb"ready[^\n]*\n")
         sim.stop()
-        stop, = sim.sym.instructions(bench.isr_module(sim.sym), "_stepper_isr", "clr", "_st_running")
-        sim.cmd(f"tbreak 0x{stop:x}")
-        sim.vcd_start()
-        sim.go()
-        sim.write(command.encode() + b"\n")
-        reply = sim.read_until(REPLY).decode().strip()
-        if not reply.startswith("ok"):
-            raise RuntimeError(f"{command!r}: {reply!r}")
-        sim.wait_stop(600)
-        sim.vcd_stop()
+        if saturate:
+            bench.measure(sim, command, True)
+        else:
+            stop, = sim.sym.instructions(bench.isr_module(sim.sym), "_stepper_isr", "clr", "_st_running")
+            sim.cmd(f"tbreak 0x{stop:x}")
+            sim.vcd_start()
+            sim.go()
+            sim.write(command.encode() + b"\n")
+            reply = sim.read_until(REPLY).decode().strip()
+            if not reply.startswith("ok"):
+                raise RuntimeError(f"{command!r}: {reply!r}")
+            sim.wait_stop(600)
+            sim.vcd_stop()
         pos = (sim.int32("_pos_x"), sim.int32("_pos_y"))
         stack = sim.max_sp() - stack_start(base) + 1
     assert pos == end, (command, pos, end)
@@ -228,7 +236,7 @@ def main(argv):
                     res["smooth"] = circle_smoothness(steps)
                 res["gap"] = gap_in_periods(steps, CYCLES_PER_S / PACED_FEED)
                 vcd = str(Path(tmp) / f"{method}-{shape}-top.vcd")
-                overhead = run(base, spec["cmd"].format(TOP_FEED), spec["end"], vcd)
+                overhead = run(base, spec["cmd"].format(TOP_FEED), spec["end"], vcd, saturate=True)
                 steps, isr = decode(vcd, overhead)
                 res["isr"], res["between"], res["speed"] = saturated(steps, isr, spec)
                 res["per_step"] = res["between"] * res["iterations"] / axis_steps

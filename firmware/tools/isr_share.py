@@ -4,6 +4,7 @@ fastest feed the image accepts on each path, in figures that hold on the
 chip and not only in s51.
 
 usage: tools/isr_share.py [--arc-feed N] [build/plotter]        (make share)
+       tools/isr_share.py build/<options>/plotter   (make share INTERP=... or any option)
 
 --arc-feed N: the arcs at N steps/s instead of their top feed, ARC_TOP
 (the image caps them there, so N is at most ARC_TOP).
@@ -72,12 +73,30 @@ BAUDS = (9600, 19200, 38400, 57600)
 CYCLES_PER_S = s51sim.CLOCK_HZ // 12
 
 
-def _ramp_h(name):
-    return int(re.search(rf"#define\s+{name}\s+(\d+)", (s51sim.FIRMWARE / "core" / "ramp.h").read_text()).group(1))
+def _board_caps():
+    """The board image's caps (core/ramp.h, its STEPPER_ASM branch): the ramp's top for a line, and
+    ARC_TOP."""
+    text = (s51sim.FIRMWARE / "core" / "ramp.h").read_text()
+    top = int(re.search(r"#define\s+RAMP_TOP\s+(\d+)", text).group(1))
+    m = re.search(r"#if defined\(STEPPER_ASM\)\s+#define LINE_TOP RAMP_TOP\s+#define ARC_TOP\s+(\d+)", text)
+    return top, int(m.group(1))
 
 
-RAMP_TOP = _ramp_h("RAMP_TOP")   # the fastest feed the image accepts for a line
-ARC_TOP = _ramp_h("ARC_TOP")     # and for an arc
+RAMP_TOP, ARC_TOP = _board_caps()   # the fastest feeds the board's image accepts for a line and an arc
+
+
+def image_caps(base):
+    """(line, arc) caps of any image, from the host build of its options beside it (core/ramp.h:
+    they follow the step interrupt the image runs)."""
+    sys.path.insert(0, str(s51sim.FIRMWARE.parent / "ros_ws" / "src" / "plotter_bridge"))
+    from plotter_bridge.sim.firmware_core import FirmwareCore
+    core = FirmwareCore(Path(base).parent / "libplotter_core.so")
+    try:
+        return core.feed_caps
+    finally:
+        core.close()
+
+
 LATENCY = 8               # machine cycles an interrupt may wait for the instruction under way, and a little
 
 # 8051 machine cycles of the instructions that take two (MUL and DIV four); every other takes one.
@@ -280,8 +299,8 @@ def step_isr_cycles(sym):
 
 
 # Each path at the fastest feed the image accepts for it.  Settings first (`$k=v; ...`).
-def paths(arc_feed=ARC_TOP):
-    t, a = RAMP_TOP, arc_feed
+def paths(arc_feed=ARC_TOP, line_feed=RAMP_TOP):
+    t, a = line_feed, arc_feed
     quarter = ["A 30 30 0 30", "A -30 30 -30 0", "A -30 -30 0 -30", "A 30 -30 30 0"]
     return {
         "line along X": f"L 30000 0 {t}",
@@ -305,8 +324,9 @@ def feed_of(command):
 
 
 def share_run(base, command):
-    """(step interrupt clocks, run clocks from its first step to its end) of one command, as
-    commanded."""
+    """(step interrupt clocks, run clocks from its first step to its end, each step interrupt's
+    cycles) of one command, as commanded.  The last only for core/stepper.c's interrupt, whose
+    register bank (PSW.3) the trace shows."""
     with tempfile.TemporaryDirectory() as tmp:
         vcd = str(Path(tmp) / "trace.vcd")
         with s51sim.Sim(base, vcd=vcd) as sim:
@@ -331,7 +351,9 @@ def share_run(base, command):
                 break
             prev = v
         idle = round(first * s51sim.CLOCK_HZ / 10**12) if first is not None else 0
-        return isr, total - idle
+        overhead = bench.isr_overhead(s51sim.Symbols(base))
+        each = bench.analyse(vcd, overhead, s51sim.CLOCK_HZ)[1] if overhead is not None else []
+        return isr, total - idle, each
 
 
 def cruise_interrupts(base, command):
@@ -400,6 +422,88 @@ def measure_all(base, arc_feed=ARC_TOP):
             for name, command in jobs.items()]
 
 
+# The images with core/stepper.c's interrupt (the option images, BAUD=115200) at their own caps:
+# the same kinds of path, shorter, as their feeds are lower.
+def c_isr_paths(line_feed, arc_feed):
+    t, a = line_feed, arc_feed
+    quarter = ["A 30 30 0 30", "A -30 30 -30 0", "A -30 -30 0 -30", "A 30 -30 30 0"]
+    return {
+        "line along X": f"L 6000 0 {t}",
+        "line along Y": f"L 0 6000 {t}",
+        "line, diagonal": f"L 4000 -4000 {t}",
+        "arc, counter-clockwise": f"A 0 0 600 0 {a}",
+        "arc, clockwise": f"C 0 0 0 1200 {a}",
+        "arc ending off the axes": f"A -1024 424 -600 0 {a}",
+        "short lines, a segment load every 40 steps": "; ".join([f"L 40 0 {t} {t}"] * 5 + [f"L 40 0 {t}"]),
+        "quarter arcs r 30, a load every 60 steps": "; ".join([f"{q} {a} {a}" for q in quarter]
+                                                              + [f"{quarter[0]} {a}"]),
+    }
+
+
+@dataclass
+class CIsrFigures:
+    """One path of an image with core/stepper.c's interrupt.  There the UART and the e-stop are
+    above the step timer (IP, hal/mcs51/main.c) and interrupt it anywhere but in its 12-cycle
+    timer reload, so a received byte waits for no step: what the step interrupt must leave is the
+    main loop's time, and the timer's periods."""
+    name: str
+    command: str
+    feed: int
+    share: float
+    longest: int        # cycles of the longest step interrupt over the middle half of the run
+    run_cycles: int     # from the first step to the end
+    typical: int = 0    # the median step interrupt over the middle half
+
+    @property
+    def period(self):
+        return CYCLES_PER_S / self.feed
+
+    @property
+    def cruising(self):
+        return self.name in CRUISING
+
+    def ok(self):
+        """The share on every path; on a cruising path no interrupt over two periods.  A segment
+        load may run longer (about 490-540 cycles): HAL_TIMER_ADVANCE then fires the next step at
+        once, so the step after a load comes late by the overrun, and the position stays exact."""
+        return self.share <= SHARE_MAX and (not self.cruising or self.longest <= 2 * self.period - LATENCY)
+
+
+def measure_c_isr(base, names=None):
+    """Each path (all of c_isr_paths, or those named) at the image's own caps."""
+    line, arc = image_caps(base)
+    jobs = {k: v for k, v in c_isr_paths(line, arc).items() if names is None or k in names}
+    with concurrent.futures.ThreadPoolExecutor(max_workers=min(4, os.cpu_count() or 1)) as pool:
+        runs = dict(zip(jobs, pool.map(lambda c: share_run(base, c), jobs.values())))
+    out = []
+    for name, command in jobs.items():
+        isr, total, each = runs[name]
+        middle = each[len(each) // 4: 3 * len(each) // 4]
+        out.append(CIsrFigures(name, command, feed_of(command), isr / total, max(middle), round(total / 12),
+                               sorted(middle)[len(middle) // 2]))
+    return out
+
+
+def main_c_isr(base):
+    line, arc = image_caps(base)
+    figures = measure_c_isr(base)
+    print(f"`tools/isr_share.py {base}`: core/stepper.c's step interrupt on Timer 0, below the UART and "
+          f"the e-stop; its caps (core/ramp.h): lines {line}, arcs {arc} iterations/s")
+    print()
+    print("| path | feed | period cycles | step interrupt share | step interrupt cycles, middle half: median | "
+          "longest |")
+    print("|---|---|---|---|---|---|")
+    for f in figures:
+        print(f"| {f.name} | {f.feed} | {f.period:.1f} | {100 * f.share:.1f} % | {f.typical} | {f.longest}"
+              f"{'' if f.ok() else ' (fails)'} |")
+    ok = all(f.ok() for f in figures)
+    print()
+    print(f"criteria: share at most {100 * SHARE_MAX:.1f} % on every path, and no step interrupt in the "
+          f"middle of a cruising run over two periods (a segment load's may be: the step after it comes "
+          f"that much late): {'met' if ok else 'NOT met'}")
+    return 0 if ok else 2
+
+
 def main(argv):
     args = list(argv[1:])
     arc_feed = ARC_TOP
@@ -415,6 +519,8 @@ def main(argv):
     if not s51sim.s51_path():
         print("s51 (Debian package sdcc-ucsim) is not installed", file=sys.stderr)
         return 1
+    if bench.isr_module(s51sim.Symbols(base)) == "stepper":
+        return main_c_isr(base)
     arb = arbitration(s51sim.Symbols(base))
     window = 10 * CYCLES_PER_S / BAUD
     figures = measure_all(base, arc_feed)

@@ -162,6 +162,11 @@ int core_drive(void) { return 3; }
 #else
 int core_drive(void) { return 0; }
 #endif
+/* The fastest feeds the image of these options accepts for a line and an
+ * arc (core/ramp.h): its step interrupt's, which the host build only
+ * reports. */
+unsigned core_line_top(void) { return LINE_TOP; }
+unsigned core_arc_top(void) { return ARC_TOP; }
 int core_running(void) { return st_running; }
 unsigned core_queue_free(void) { return QUEUE_FREE(); }
 unsigned core_underruns(void) { return st_underruns; }

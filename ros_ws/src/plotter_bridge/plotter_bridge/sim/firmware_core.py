@@ -68,6 +68,7 @@ class FirmwareCore:
         lib.core_seq_log.restype = ctypes.c_uint32
         lib.core_run_steps.restype = ctypes.c_int32
         lib.core_rx_free.restype = ctypes.c_uint32
+        lib.core_line_top.restype = lib.core_arc_top.restype = ctypes.c_uint
         self._lib = lib
         self._txbuf = ctypes.create_string_buffer(8192)
         self.reset()
@@ -111,6 +112,12 @@ class FirmwareCore:
         built-in figures (a serial `a` draws the star), the displays."""
         if self.has_panel:
             self._lib.core_panel_tick()
+
+    @property
+    def feed_caps(self) -> tuple[int, int]:
+        """The fastest feeds (iterations/s) the board image of this build accepts for a line and
+        an arc (core/ramp.h LINE_TOP, ARC_TOP)."""
+        return int(self._lib.core_line_top()), int(self._lib.core_arc_top())
 
     def timer_running(self) -> bool:
         return bool(self._lib.core_timer_on())
