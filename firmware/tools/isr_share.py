@@ -298,10 +298,19 @@ def step_isr_cycles(sym):
     return 2 + 2 + longest_path(*module_code(lines), "_stepper_isr", loops={"load_byte": size // 2})
 
 
+def load_paths(t, a):
+    """Segments joined at speed, a load every few dozen steps: lines at t, arcs at a."""
+    quarter = ["A 30 30 0 30", "A -30 30 -30 0", "A -30 -30 0 -30", "A 30 -30 30 0"]
+    return {
+        "short lines, a segment load every 40 steps": "; ".join([f"L 40 0 {t} {t}"] * 5 + [f"L 40 0 {t}"]),
+        "quarter arcs r 30, a load every 60 steps": "; ".join([f"{q} {a} {a}" for q in quarter]
+                                                              + [f"{quarter[0]} {a}"]),
+    }
+
+
 # Each path at the fastest feed the image accepts for it.  Settings first (`$k=v; ...`).
 def paths(arc_feed=ARC_TOP, line_feed=RAMP_TOP):
     t, a = line_feed, arc_feed
-    quarter = ["A 30 30 0 30", "A -30 30 -30 0", "A -30 -30 0 -30", "A 30 -30 30 0"]
     return {
         "line along X": f"L 30000 0 {t}",
         "line along Y": f"L 0 30000 {t}",
@@ -311,9 +320,7 @@ def paths(arc_feed=ARC_TOP, line_feed=RAMP_TOP):
         "arc, clockwise": f"C 0 0 0 3000 {a}",
         "arc ending off the axes": f"A -2561 1061 -1500 0 {a}",
         "arc on the ramp throughout": f"A 0 0 0 -25 {a}",
-        "short lines, a segment load every 40 steps": "; ".join([f"L 40 0 {t} {t}"] * 5 + [f"L 40 0 {t}"]),
-        "quarter arcs r 30, a load every 60 steps": "; ".join([f"{q} {a} {a}" for q in quarter]
-                                                              + [f"{quarter[0]} {a}"]),
+        **load_paths(t, a),
     }
 
 
@@ -426,7 +433,6 @@ def measure_all(base, arc_feed=ARC_TOP):
 # the same kinds of path, shorter, as their feeds are lower.
 def c_isr_paths(line_feed, arc_feed):
     t, a = line_feed, arc_feed
-    quarter = ["A 30 30 0 30", "A -30 30 -30 0", "A -30 -30 0 -30", "A 30 -30 30 0"]
     return {
         "line along X": f"L 6000 0 {t}",
         "line along Y": f"L 0 6000 {t}",
@@ -434,9 +440,7 @@ def c_isr_paths(line_feed, arc_feed):
         "arc, counter-clockwise": f"A 0 0 600 0 {a}",
         "arc, clockwise": f"C 0 0 0 1200 {a}",
         "arc ending off the axes": f"A -1024 424 -600 0 {a}",
-        "short lines, a segment load every 40 steps": "; ".join([f"L 40 0 {t} {t}"] * 5 + [f"L 40 0 {t}"]),
-        "quarter arcs r 30, a load every 60 steps": "; ".join([f"{q} {a} {a}" for q in quarter]
-                                                              + [f"{quarter[0]} {a}"]),
+        **load_paths(t, a),
     }
 
 
