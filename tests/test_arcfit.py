@@ -294,21 +294,22 @@ def _chord_circle(feed: float, chord: float = 1.0, r: float = 30.0) -> str:
                      + [f"G1 X{x:.4f} Y{y:.4f} F{feed:g}" for x, y in pts[1:]] + ["M5"]) + "\n"
 
 
-@pytest.mark.parametrize("feed, baud, arcs", [
-    (6000, 9600, True),       # 1 mm chords wait for the link: 27 bytes at 960 bytes/s, 0.029 s a mm
-    (6000, 0, True),          # the link unknown: the board's default, 9600
-    (6000, 115200, False),    # the link keeps up: chords at 100 mm/s beat arcs at the arcs' top feed
-    (2400, 115200, True),     # a feed an arc keeps: the arc, and fewer bytes
-    (300, 115200, True),
+@pytest.mark.parametrize("feed, baud, cpu, arcs", [
+    (6000, 9600, True, True),       # 1 mm chords wait for the link: 27 bytes at 960 bytes/s, 0.029 s a mm
+    (6000, 0, True, True),          # the link unknown: the board's default, 9600
+    (6000, 115200, True, True),     # the link keeps up, the board's CPU does not: 20 ms a command
+    (6000, 115200, False, False),   # a board planning in no time: chords at 100 mm/s beat arcs at 5000
+    (2400, 115200, False, True),    # a feed an arc keeps: the arc, and fewer bytes
+    (300, 115200, True, True),
 ])
-def test_chords_become_an_arc_only_where_the_arc_draws_no_slower(feed, baud, arcs):
+def test_chords_become_an_arc_only_where_the_arc_draws_no_slower(feed, baud, cpu, arcs):
     """The board steps arcs at most MAX_ARC_RATE (firmware/README.md): a run of chords becomes an
-    arc where that is no slower than the chords at their feed and on the link."""
+    arc where that is no slower than the chords at their feed, on the link and in the board's CPU."""
     from plotter_bridge.motion.compiler import StreamerConfig, compile_program
     from plotter_bridge.sim.expected import step_positions
     program = _chord_circle(feed)
-    fitted = compile_program(program, StreamerConfig(link_baud=baud))
-    chords = compile_program(program, StreamerConfig(link_baud=baud, fit_arcs=False))
+    fitted = compile_program(program, StreamerConfig(link_baud=baud, board_cpu=cpu))
+    chords = compile_program(program, StreamerConfig(link_baud=baud, fit_arcs=False, board_cpu=cpu))
     assert any(c.verb in "AC" for c in fitted) == arcs
     if not arcs:
         assert [c.text for c in fitted] == [c.text for c in chords]
@@ -331,7 +332,21 @@ def test_arc_pays_weighs_the_arcs_top_feed_against_the_chords_and_their_link():
         length = sum(math.dist(a, b) for a, b in zip(pts, pts[1:]))
         as_arc = max(length / (feed / 60), steps / MAX_ARC_RATE)
         as_chords = max(length / (feed / 60), 16 * 27 / (baud / 10 * 0.97))
-        assert arc_pays(80.0, baud)(chords, arc) == (as_arc <= as_chords), (feed, baud)
-    assert [arc_pays(80.0, b)(chords_at(f), Move(1, "arc", 10, 0, 0, 10, f, "down", cx=0, cy=0, cw=False))
+        assert arc_pays(80.0, baud, cpu=None)(chords, arc) == (as_arc <= as_chords), (feed, baud)
+    assert [arc_pays(80.0, b, cpu=None)(chords_at(f), Move(1, "arc", 10, 0, 0, 10, f, "down", cx=0, cy=0,
+                                                           cw=False))
             for f, b in ((6000, 115200), (6000, 9600), (1000, 115200))] \
         == [False, True, True]
+
+
+def test_arc_pays_counts_the_boards_cpu_per_chord():
+    """16 chords cost the board 16 commands' main-loop work (BoardCpu), the arc one: at 115200 baud,
+    where the link keeps up with 1 mm chords at F6000, the CPU does not, and the arc pays."""
+    from plotter_bridge.gcode.types import Move
+    from plotter_bridge.motion.compiler import arc_pays
+    from plotter_bridge.motion.planner import BoardCpu
+    pts = [(10 * math.cos(k * math.pi / 32), 10 * math.sin(k * math.pi / 32)) for k in range(17)]
+    chords = [Move(1, "line", a[0], a[1], b[0], b[1], 6000, "down") for a, b in zip(pts, pts[1:])]
+    arc = Move(1, "arc", 10, 0, 0, 10, 6000, "down", cx=0, cy=0, cw=False)
+    assert arc_pays(80.0, 115200)(chords, arc)
+    assert not arc_pays(80.0, 115200, cpu=BoardCpu(command_cycles=100.0))(chords, arc)   # a fast CPU: chords

@@ -21,7 +21,7 @@ from plotter_bridge.gcode.steps import MAX_OFFSET, to_steps
 from plotter_bridge.gcode.types import GCodeError, Move
 from .hanging import hanging_motion
 from .kinematics import DEFAULT_Z_STEPS_PER_MM, HangingGeometry, check_z
-from .planner import LINK_SHARE, PlannerLimits, cap_for_link, plan
+from .planner import BOARD_CPU, LINK_SHARE, BoardCpu, PlannerLimits, cap_for_link, plan
 
 MAX_PROGRAM_BYTES = 4 * 1024 * 1024
 LINE_WIRE_BYTES = 27     # a short line command on the wire (benchmarks/RESULTS.md: 27.3-27.7 a command)
@@ -48,6 +48,7 @@ class StreamerConfig:
     marlin_pen_up: float = DEFAULT_MARLIN_PEN_UP      # marlin: M300 S<angle> that lifts it
     fit_arcs: bool = True              # runs of drawn chords on a circle or a line go as one arc or line
     arc_tolerance: float = 0.02        # fit_arcs: the fitted path's greatest distance from the chords (mm)
+    board_cpu: bool = True             # link_baud: also slow commands down to what the board's CPU parses
 
     def __post_init__(self) -> None:
         check_z(self.z_mode, self.z_steps_per_mm)
@@ -65,14 +66,15 @@ class StreamerConfig:
         return PlannerLimits(min(self.acceleration * k, 0.8 * FIRMWARE_ACCEL), self.junction_deviation * k)
 
 
-def arc_pays(steps_per_mm: float, link_baud: int) -> Callable[[Sequence[Move], Move], bool]:
+def arc_pays(steps_per_mm: float, link_baud: int,
+             cpu: Optional[BoardCpu] = BOARD_CPU) -> Callable[[Sequence[Move], Move], bool]:
     """Whether an arc draws a run of chords no slower than the chords themselves on this board.
 
     The board steps an arc at most MAX_ARC_RATE (its interrupt's cost, firmware/README.md) and a line
     at MAX_RATE; a chord also waits for its bytes on the link (link_baud, 0: the board's default).
-    Each at its feed, as fast as those allow (the ramps aside): the arc is taken when it is not slower,
-    which at the firmware's 9600 baud is nearly always for short chords, and at 115200 only at feeds
-    an arc keeps."""
+    Each at its feed, as fast as those allow (the ramps aside), and no faster than the board's CPU
+    parses and plans them (`cpu`, BoardCpu: a command costs its main loop about 20 ms): the arc is taken
+    when it is not slower, which for short chords is nearly always, at any baud."""
     bytes_per_s = (link_baud or DEFAULT_BAUD) / 10.0 * LINK_SHARE
 
     def pays(chords: Sequence[Move], arc: Move) -> bool:
@@ -81,15 +83,19 @@ def arc_pays(steps_per_mm: float, link_baud: int) -> Callable[[Sequence[Move], M
         by_feed = length / (arc.feed / 60.0)
         as_arc = max(by_feed, steps / MAX_ARC_RATE)
         as_chords = max(by_feed, steps / MAX_RATE, len(chords) * LINE_WIRE_BYTES / bytes_per_s)
+        if cpu is not None:
+            as_arc = max(as_arc, cpu.time(steps, arc=True))
+            as_chords = max(as_chords, len(chords) * cpu.time(steps / len(chords), arc=False))
         return as_arc <= as_chords
     return pays
 
 
-def board_fit(tolerance: float, area: Optional[WorkArea], steps_per_mm: float, link_baud: int = 0) -> FitConfig:
+def board_fit(tolerance: float, area: Optional[WorkArea], steps_per_mm: float, link_baud: int = 0,
+              cpu: Optional[BoardCpu] = BOARD_CPU) -> FitConfig:
     """The arc fit for this board: no flatter arcs than it takes in one command (they would go as
     chords again, gcode/steps.py), and no arc where the chords draw faster (arc_pays)."""
     return FitConfig(tolerance=tolerance, area=area, max_radius=MAX_OFFSET / steps_per_mm,
-                     arc_pays=arc_pays(steps_per_mm, link_baud))
+                     arc_pays=arc_pays(steps_per_mm, link_baud, cpu))
 
 
 def compile_program(text: str, config: StreamerConfig,
@@ -111,7 +117,7 @@ def compile_program(text: str, config: StreamerConfig,
     if config.fit_arcs and config.machine == "cartesian":
         # (the hanging machine's moves go as short lines whatever they were)
         items = fit_arcs(items, board_fit(config.arc_tolerance, config.area, config.motor_steps_per_mm(),
-                                          config.link_baud))
+                                          config.link_baud, BOARD_CPU if config.board_cpu else None))
     z_motion = z_axis_motion(config.z_steps_per_mm) if z_axis else None
     if config.machine == "hanging":
         commands = to_commands(items, hanging_motion(config.hanging, config.tolerance), config.rapid_feed,
@@ -120,5 +126,6 @@ def compile_program(text: str, config: StreamerConfig,
         commands = to_commands(to_steps(items, config.steps_per_mm),
                                cartesian_motion(config.steps_per_mm), config.rapid_feed, z_motion)
     if config.link_baud > 0:
-        cap_for_link(commands, config.link_baud / 10.0, first_seq=None if config.link_seq < 0 else config.link_seq)
+        cap_for_link(commands, config.link_baud / 10.0, first_seq=None if config.link_seq < 0 else config.link_seq,
+                     cpu=BOARD_CPU if config.board_cpu else None)
     return plan(commands, config.limits()) if config.lookahead else commands

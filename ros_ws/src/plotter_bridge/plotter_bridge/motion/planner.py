@@ -37,6 +37,8 @@ class PlannerLimits:
 LINK_SHARE = 0.97    # part of its byte rate a streaming link keeps busy (benchmarks/RESULTS.md)
 BOARD_QUEUE = 6      # commands the board holds (firmware QUEUE_SIZE, $I field Q)
 SUM_DIGITS = 5       # a checksum below 10000 is the exception (1 line in 6)
+RX_BUFFER = 64       # bytes the link keeps unacknowledged: the board's receive ring ($I field B)
+REPLY_BYTES = 17     # `ok N<seq> Q<free> *<sum>` and its line end
 
 
 def wire_bytes(cmd: BoardCommand, rate: int = 0, seq: Optional[int] = None) -> int:
@@ -48,6 +50,39 @@ def wire_bytes(cmd: BoardCommand, rate: int = 0, seq: Optional[int] = None) -> i
     number = len(str(seq % SEQ_MOD)) if seq is not None else 5
     text = compact_command(" ".join([cmd.verb, *map(str, cmd.args), r, r]))
     return 1 + number + len(text) + 1 + SUM_DIGITS + 1       # N<seq><text>*<sum>\n
+
+
+@dataclass(frozen=True)
+class BoardCpu:
+    """What a streamed command costs the board's main loop, which parses and
+    plans it in what the step interrupt leaves of the CPU
+    (`make -C firmware plancost`, firmware/tools/plan_cost.py, the default
+    image at 11.0592 MHz).  However fast the link, the board takes a motion
+    command no faster than `seconds`: short chords at a high feed are
+    bounded by the CPU, not only by the bytes."""
+    cycles_per_s: float = 921600.0      # machine cycles a second (11.0592 MHz / 12)
+    # A chord: its receive, parse, plan and reply (14323) and its 42 bytes' UART interrupts at their
+    # longest path (94 each); an arc likewise (17200, 46 bytes).
+    command_cycles: float = 18271.0
+    arc_command_cycles: float = 21524.0
+    step_cycles: float = 42.3           # the step interrupt's cycles per line step (36.7 % at 8000 steps/s)
+    arc_step_cycles: float = 84.6       # ... per arc step (45.9 % at 5000)
+    # Of the CPU counted on: a ramp's level changes, a segment load and the link's jitter take the rest.
+    share: float = 0.9
+
+    def time(self, steps: float, arc: bool) -> float:
+        """The least time the board takes for a motion command of `steps`
+        when commands like it come back to back: the CPU does the next one's
+        main-loop work and this one's step interrupts in it."""
+        cycles = (self.arc_command_cycles + self.arc_step_cycles * steps if arc
+                  else self.command_cycles + self.step_cycles * steps)
+        return cycles / (self.cycles_per_s * self.share)
+
+    def seconds(self, cmd: BoardCommand) -> float:
+        return self.time(cmd.steps, cmd.verb in ("A", "C"))
+
+
+BOARD_CPU = BoardCpu()
 
 
 def _trailing_rates(steps: Sequence[int], seconds: Sequence[float], window: int) -> List[float]:
@@ -62,7 +97,7 @@ def _trailing_rates(steps: Sequence[int], seconds: Sequence[float], window: int)
 
 def cap_for_link(commands: Sequence[BoardCommand], link_bytes_per_s: float,
                  share: float = LINK_SHARE, window: int = BOARD_QUEUE,
-                 first_seq: Optional[int] = None) -> List[BoardCommand]:
+                 first_seq: Optional[int] = None, cpu: Optional[BoardCpu] = BOARD_CPU) -> List[BoardCommand]:
     """Lower (in place) the cruise rate of motion commands shorter in time
     than the link needs to deliver them, so that the board takes about as
     long to draw them as `share` of the link's byte rate takes to send
@@ -79,7 +114,11 @@ def cap_for_link(commands: Sequence[BoardCommand], link_bytes_per_s: float,
     lowest.  Only earlier commands count, because a command the board runs
     faster than the link delivers it must be paid for by time the queue has
     already gained.  A lower rate may take fewer digits on the wire, so the
-    bytes are counted again at the capped rates."""
+    bytes are counted again at the capped rates.
+
+    `cpu`: the board's own time per command (BoardCpu), the floor under
+    the link's: a command takes at least that long to be parsed and
+    planned, at any baud rate (None: a board that plans in no time)."""
     if link_bytes_per_s <= 0:
         return list(commands)
     bytes_per_s = link_bytes_per_s * share
@@ -88,11 +127,22 @@ def cap_for_link(commands: Sequence[BoardCommand], link_bytes_per_s: float,
     def seq(k: int) -> Optional[int]:
         return None if first_seq is None else first_seq + k
 
+    def need(cmd: BoardCommand, rate: int, number: Optional[int]) -> float:
+        """Seconds the link and the board need for a command at `rate` (0: its own).  With the board's
+        CPU: also what the link's window allows, as many lines as fill the receive ring each held from
+        its first byte sent until its ok is in (its bytes, its parsing, the ok's bytes)."""
+        n = wire_bytes(cmd, rate, number)
+        if cpu is None:
+            return n / bytes_per_s
+        parse = cpu.seconds(cmd)
+        window = ((n + REPLY_BYTES) / link_bytes_per_s + parse) * n / RX_BUFFER
+        return max(n / bytes_per_s, parse, window / share)
+
     def flush() -> None:
         steps = [c.steps for _, c in run]
         rates = [c.rate for _, c in run]
         for _ in range(2):
-            seconds = [wire_bytes(c, r, seq(k)) / bytes_per_s for (k, c), r in zip(run, rates)]
+            seconds = [need(c, r, seq(k)) for (k, c), r in zip(run, rates)]
             caps = _trailing_rates(steps, seconds, window)
             rates = [max(MIN_RATE, min(c.rate, int(cap))) for (_, c), cap in zip(run, caps)]
         for (_, c), r in zip(run, rates):
@@ -100,7 +150,7 @@ def cap_for_link(commands: Sequence[BoardCommand], link_bytes_per_s: float,
         run.clear()
 
     for k, cmd in enumerate(commands):
-        if cmd.is_motion and cmd.steps > 0 and cmd.steps / cmd.rate < wire_bytes(cmd, 0, seq(k)) / bytes_per_s:
+        if cmd.is_motion and cmd.steps > 0 and cmd.steps / cmd.rate < need(cmd, 0, seq(k)):
             run.append((k, cmd))
         else:
             flush()

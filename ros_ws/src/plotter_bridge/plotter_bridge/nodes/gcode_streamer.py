@@ -121,6 +121,8 @@ SPECS = (
               "mm", low=0.0, above=True, high=1.0),
     ParamSpec("link_baud", -1, "slow commands shorter than their time on the serial link down to its pace at "
                                "this baud rate (-1: serial_bridge's, 0: off)", "baud", low=-1, high=1_000_000),
+    ParamSpec("board_cpu", True, "with link_baud: also slow short commands down to what the board's 8051 parses "
+                                 "and plans (motion/planner.py BoardCpu); false: a board that plans in no time"),
     ParamSpec("tolerance", 0.1, "hanging machine: largest pen deviation from the programmed path", "mm",
               low=0.0, above=True, high=10.0),
     ParamSpec("dialect", LINUXCNC, "G-code dialect: linuxcnc, grbl (M3 S power word) or marlin (M300 pen servo, "
@@ -160,7 +162,8 @@ def streamer_config(values) -> StreamerConfig:
                           z_mode=machine.z_mode, z_steps_per_mm=machine.z_steps_per_mm,
                           dialect=str(values["dialect"]), pen_up_z=v["pen_up_z"],
                           marlin_pen_down=v["marlin_pen_down"], marlin_pen_up=v["marlin_pen_up"],
-                          fit_arcs=bool(values["fit_arcs"]), arc_tolerance=float(values["arc_tolerance"]))
+                          fit_arcs=bool(values["fit_arcs"]), arc_tolerance=float(values["arc_tolerance"]),
+                          board_cpu=bool(values["board_cpu"]))
 
 
 class GCodeStreamer(Node):
