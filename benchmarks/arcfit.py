@@ -37,6 +37,7 @@ ROOT = HERE.parent
 sys.path.insert(0, str(HERE))
 
 from plotter_bridge.motion.compiler import StreamerConfig, compile_program  # noqa: E402
+from plotter_bridge.motion.planner import BOARD_CPU  # noqa: E402
 from bench import bound_limits  # noqa: E402
 from bound import program_time  # noqa: E402
 from programs import Program, bound_items, lissajous_program, spirograph_program  # noqa: E402
@@ -84,10 +85,15 @@ def main() -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--tolerance", type=float, default=StreamerConfig().arc_tolerance,
                     help="arc_tolerance, mm (default: the streamer's)")
+    ap.add_argument("--chip", action="store_true",
+                    help="charge the 8051's main loop for each command (BoardCpu, `make -C firmware plancost`) "
+                         "on the simulated board, and let the streamer plan for it; default: a board that "
+                         "parses and plans in no time, a streamer that does not plan for it")
     args = ap.parse_args()
+    cpu = BOARD_CPU if args.chip else None
     rows = ["| drawing | G1 in the file | fit | board commands | command bytes (per command) | board s at 115200 | "
-            "board s at 9600 | 9600 vs chords at 115200 | bound s |",
-            "|---|---|---|---|---|---|---|---|---|"]
+            "board s at 9600 | 9600 vs chords at 115200 | bound s | underruns 115200 / 9600 |",
+            "|---|---|---|---|---|---|---|---|---|---|"]
     for d in drawings():
         chords_115200 = None
         g1 = sum(1 for line in d.program.gcode.splitlines() if line.startswith("G1 "))
@@ -95,9 +101,10 @@ def main() -> int:
             times = {}
             for baud in (115200, 9600):
                 config = replace(StreamerConfig(), link_baud=baud, fit_arcs=fit, arc_tolerance=args.tolerance,
-                                 dialect=d.dialect)
+                                 dialect=d.dialect, board_cpu=args.chip)
                 commands = compile_program(d.program.gcode, config, (0, 0))
-                session = SimSession(baud=baud)
+                session = (SimSession(baud=baud, line_cycles=round(cpu.command_cycles), step_cycles=cpu.step_cycles)
+                           if cpu else SimSession(baud=baud))
                 try:
                     result = session.stream(commands)
                 finally:
@@ -111,7 +118,8 @@ def main() -> int:
             wire = sum(slow.wire_bytes)
             rows.append(f"| {d.program.name} | {g1} | {'on' if fit else 'off'} | {slow.commands} | "
                         f"{wire} ({wire / slow.commands:.1f}) | {times[115200].board_time:.2f} | "
-                        f"{slow.board_time:.2f} | {slow.board_time / chords_115200:.2f}x | {bound:.2f} |")
+                        f"{slow.board_time:.2f} | {slow.board_time / chords_115200:.2f}x | {bound:.2f} | "
+                        f"{times[115200].underruns} / {slow.underruns} |")
     command = " ".join(["python benchmarks/arcfit.py", shlex.join(sys.argv[1:])]).strip()
     print(f"`{command}`")
     print()

@@ -202,7 +202,7 @@ def sim_link(case: LinkCase) -> LinkRow:
     try:
         prog = polygon_program(case.segments, case.chord, case.feed)
         config = StreamerConfig(link_baud=case.baud if case.link_cap else 0, link_seq=session.link.next_seq,
-                                fit_arcs=False)
+                                fit_arcs=False, board_cpu=False)     # the link's pace: SimBoard plans in no time
         cmds = compile_for(prog, session.position, config=config)
         r = session.stream(cmds)
     finally:

@@ -44,6 +44,7 @@ def main() -> int:
     ap.add_argument("--trace", required=True)
     ap.add_argument("--stats", required=True)
     ap.add_argument("--baud", type=int, default=115200)
+    ap.add_argument("--no-cpu", action="store_true", help="a board that parses and plans in no time")
     ap.add_argument("--setting", action="append", default=[], metavar="K=V")
     args = ap.parse_args()
 
@@ -58,7 +59,7 @@ def main() -> int:
             os.nice(-10)
         except OSError:
             pass
-    board = MockBoard(MockBoardConfig(baud=args.baud, trace=args.trace))
+    board = MockBoard(MockBoardConfig(baud=args.baud, trace=args.trace, cpu=not args.no_cpu))
     for s in args.setting:
         board.core.receive(f"${s}\n".encode())
         board.core.poll(4)

@@ -169,8 +169,10 @@ class BenchGraph:
         self.stats_path = workdir / "board.json"
         self.trace = TraceReader(workdir / "trace.csv")
         self.baud = baud
+        # A board that parses in no time, planned for as such: these programs measure the link and the
+        # planner, as on the simulated board (the chip's CPU: benchmarks/arcfit.py --chip).
         cmd = [sys.executable, str(HERE / "mockproc.py"), "--link", str(self.link),
-               "--trace", str(self.trace.path), "--stats", str(self.stats_path), "--baud", str(baud)]
+               "--trace", str(self.trace.path), "--stats", str(self.stats_path), "--baud", str(baud), "--no-cpu"]
         for s in settings:
             cmd += ["--setting", s]
         self._mock_log = open(workdir / "mock.log", "w")
@@ -182,7 +184,7 @@ class BenchGraph:
                                   ns + ("-p", f"port:={self.link}", "-p", f"baud:={baud}"))
         # chords as written: these programs measure the link and the planner (benchmarks/arcfit.py: fitting)
         self.streamer = NodeProcess("plotter_bridge.nodes.gcode_streamer", self.domain,
-                                    ns + ("-p", "fit_arcs:=false"))
+                                    ns + ("-p", "fit_arcs:=false", "-p", "board_cpu:=false"))
         self.sampler = ProcSampler({"serial_bridge": self.bridge.proc.pid,
                                     "gcode_streamer": self.streamer.proc.pid,
                                     "mock_board": self.mock.pid})
@@ -228,7 +230,7 @@ class BenchGraph:
         start = (self.state.x_steps, self.state.y_steps)
         first_seq = self.state.next_seq
         # As gcode_streamer compiles it: the link cap at the bridge's baud.
-        config = StreamerConfig(link_baud=self.baud, link_seq=first_seq, fit_arcs=False)
+        config = StreamerConfig(link_baud=self.baud, link_seq=first_seq, fit_arcs=False, board_cpu=False)
         commands = compile_for(program, start, config=config)
         self.trace.update()
         first_row = len(self.trace.rows)

@@ -14,7 +14,12 @@ one byte per 10 bit times in *both* directions:
   TX_SIZE + 1 bytes are waiting to be sent.
 
 The main loop itself runs in zero time (the host build of the core), unless
-`line_cycles` gives it a cost per line, e.g. as measured on the 8051 image.
+`line_cycles` gives it a cost per line, e.g. as measured on the 8051 image
+(`make -C firmware plancost`): a line in the ring is then queued and
+answered that long after the main loop starts on it; with `step_cycles`
+the step interrupt takes that many cycles a step from it, so a line takes
+line_cycles over the share of the CPU the steps leave at the rate they run
+when it starts.
 The host side polls every `host_period` seconds, standing for the serial
 bridge's I/O thread, which wakes when bytes arrive: whatever has arrived is
 read, and what the link decides to send goes on the wire at that moment.
@@ -56,8 +61,9 @@ class SimBoard:
     """A board and its serial line on simulated time; `port` is the host's end."""
 
     def __init__(self, core: FirmwareCore, baud: int = 115200, host_period: float = 0.001,
-                 line_cycles: int = 0, record_steps: bool = False) -> None:
+                 line_cycles: int = 0, record_steps: bool = False, step_cycles: float = 0.0) -> None:
         self.core = core
+        self.step_cycles = step_cycles
         self.baud = baud
         self.byte_cycles = round(CYCLES_PER_S * 10 / baud)
         self.host_cycles = max(1, round(CYCLES_PER_S * host_period))
@@ -73,6 +79,8 @@ class SimBoard:
         self._tick_at = NEVER
         self._last_tick = NEVER
         self._busy_until = 0                # main loop busy with a line until then
+        self._parsing = False               # ... which it has started on (line_cycles)
+        self._lines_waiting = 0             # line ends in the receive ring
         self._next_host = 0
         self.port = _HostPort(self)
         self._main_loop()                   # the power-on banner
@@ -104,10 +112,24 @@ class SimBoard:
     def _main_loop(self) -> None:
         """Run the main loop while it can make progress."""
         core = self.core
-        while self.t >= self._busy_until and not self._blocked():
+        while not self._blocked():
+            if self.line_cycles and self._lines_waiting and not self._parsing:
+                # The line is taken whole: its queue entry and its reply come at the end.
+                self._parsing = True
+                left = 1.0
+                if self.step_cycles and core.timer_running():
+                    left = max(0.05, 1.0 - self.step_cycles / max(core.period(), 1))
+                self._busy_until = self.t + round(self.line_cycles / left)
+            if self._parsing:
+                if self.t < self._busy_until:
+                    return
+                self._parsing = False
+                self._lines_waiting -= 1
             free = core.rx_free()
             was_running = core.timer_running()
             core.poll()
+            if core.rx_free() == RX_SIZE:
+                self._lines_waiting = 0
             out = core.transmitted()
             if out:
                 if not self._tx_queue:
@@ -118,8 +140,6 @@ class SimBoard:
                 self._tick_at = self.t + core.period()
                 self._last_tick = NEVER
             consumed = core.rx_free() != free
-            if consumed and self.line_cycles:
-                self._busy_until = self.t + self.line_cycles
             if not consumed and not out:
                 return
 
@@ -161,6 +181,8 @@ class SimBoard:
                 del self._to_board[:1]
                 if core.rx_free() == 0 and byte not in REALTIME:
                     stats.rx_overflows += 1
+                elif byte == b"\n":
+                    self._lines_waiting += 1
                 core.receive(byte)
                 self._rx_done = t + self.byte_cycles if self._to_board else NEVER
                 wake = True

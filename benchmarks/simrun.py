@@ -50,10 +50,10 @@ class SimSession:
     def __init__(self, baud: int = 115200, settings: Sequence[str] = (),
                  status_hz: float = BRIDGE_STATUS_HZ, line_cycles: int = 0,
                  host_period: float = HOST_PERIOD, record_steps: bool = False,
-                 scale_status: bool = True) -> None:
+                 scale_status: bool = True, step_cycles: float = 0.0) -> None:
         self.core = FirmwareCore()
         self.board = SimBoard(self.core, baud=baud, line_cycles=line_cycles, host_period=host_period,
-                              record_steps=record_steps)
+                              record_steps=record_steps, step_cycles=step_cycles)
         self.statuses: List[Tuple[float, int, int]] = []    # (host time, x, y) of each status report
         settle(self.board, 0.01)
         for s in settings:                     # typed `$k=v` lines, before the link starts

@@ -100,7 +100,7 @@ def test_sim_board_sends_replies_at_the_baud_rate(core):
 def test_link_cap_makes_commands_last_their_time_on_the_wire():
     cmds = [BoardCommand("L", (8, 0), 1, 8, 8000, dir_in=EAST, dir_out=EAST) for _ in range(5)]
     cmds.append(BoardCommand("L", (4000, 0), 1, 4000, 8000, dir_in=EAST, dir_out=EAST))
-    cap_for_link(cmds, 11520.0, share=0.9, first_seq=1234)
+    cap_for_link(cmds, 11520.0, share=0.9, first_seq=1234, cpu=None)
     for k, c in enumerate(cmds):
         assert c.steps / c.rate >= wire_bytes(c, seq=1234 + k) / (11520.0 * 0.9) - 1e-9
     assert cmds[0].rate < 8000 and cmds[-1].rate == 8000     # long commands keep their feed
@@ -118,7 +118,7 @@ def test_link_cap_gives_neighbouring_chords_one_rate():
     the lowest.  Over any stretch the board takes as long as the link."""
     steps = [10, 11] * 30
     cmds = [BoardCommand("L", (s, 0), 1, s, 10000, dir_in=EAST, dir_out=EAST) for s in steps]
-    cap_for_link(cmds, 11520.0, share=0.95, first_seq=100)
+    cap_for_link(cmds, 11520.0, share=0.95, first_seq=100, cpu=None)
     rates = [c.rate for c in cmds[6:]]
     assert max(rates) - min(rates) <= 0.01 * max(rates)
     board = sum(c.steps / c.rate for c in cmds[6:])
@@ -131,3 +131,49 @@ def test_streamer_plans_for_the_bridges_baud_unless_told():
     assert link_baud(0, 9600) == 0              # off
     assert link_baud(115200, 9600) == 115200
     assert link_baud(-1, 0) == 0                # a bridge that does not say
+
+
+def test_board_cpu_bounds_short_chords_whatever_the_baud():
+    """A chord takes the board's main loop BoardCpu.command_cycles, in the
+    share of the CPU its steps leave: at 115200 baud that, not the link,
+    bounds 1 mm chords; at 9600 the link is the tighter bound."""
+    from plotter_bridge.motion.planner import BOARD_CPU
+    cpu = BOARD_CPU
+    for baud, cpu_binds in ((115200, True), (9600, False)):
+        cmds = [BoardCommand("L", (80, 0), 1, 80, 8000, dir_in=EAST, dir_out=EAST) for _ in range(30)]
+        cap_for_link(cmds, baud / 10.0, first_seq=100)
+        r = cmds[-1].rate
+        closed_form = 80 * cpu.cycles_per_s * cpu.share / (cpu.command_cycles + cpu.step_cycles * 80)
+        if cpu_binds:
+            assert r == pytest.approx(closed_form, rel=0.03)
+        else:
+            assert r < 0.97 * closed_form
+        assert 80 / r >= cpu.seconds(cmds[-1]) * 0.99
+    long = [BoardCommand("L", (8000, 0), 1, 8000, 8000, dir_in=EAST, dir_out=EAST) for _ in range(3)]
+    cap_for_link(long, 11520.0)
+    assert all(c.rate == 8000 for c in long)         # long commands keep their feed
+
+
+@pytest.mark.parametrize("baud, board_cpu", [(115200, True), (9600, True), (115200, False)])
+def test_a_board_that_charges_the_chips_cpu_runs_dry_unless_planned_for(baud, board_cpu):
+    """On the simulated board charging each line the chip's main-loop cycles
+    (SimBoard line_cycles, step_cycles), 1 mm chords at F6000 keep the queue
+    fed when the streamer plans for the CPU (at 9600 baud, for the window of
+    lines the receive ring holds while each is parsed and answered), and at
+    115200 brake at chord after chord when it plans for the link alone."""
+    from plotter_bridge.motion.compiler import StreamerConfig, compile_program
+    from plotter_bridge.motion.planner import BOARD_CPU
+    from simrun import SimSession
+    gcode = "G21 G90\nG0 X70 Y50\nM3\n" + "".join(
+        f"G1 X{50 + 20 * math.cos(k / 20):.3f} Y{50 + 20 * math.sin(k / 20):.3f} F6000\n" for k in range(1, 120))
+    config = StreamerConfig(link_baud=baud, fit_arcs=False, board_cpu=board_cpu)
+    session = SimSession(baud=baud, line_cycles=round(BOARD_CPU.command_cycles),
+                         step_cycles=BOARD_CPU.step_cycles)
+    try:
+        result = session.stream(compile_program(gcode, config, (0, 0)))
+    finally:
+        session.close()
+    if board_cpu:
+        assert result.underruns <= 2
+    else:
+        assert result.underruns > 30

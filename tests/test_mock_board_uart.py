@@ -36,9 +36,38 @@ def test_paced_line_queues_behind_bytes_still_on_the_wire():
 
 @pytest.fixture
 def board():
-    b = MockBoard(MockBoardConfig(baud=9600), FirmwareCore(host_library()))
+    b = MockBoard(MockBoardConfig(baud=9600, cpu=False), FirmwareCore(host_library()))
     yield b
     b.close()
+
+
+def test_the_mock_boards_main_loop_takes_a_line_as_long_as_the_chip():
+    """With the chip's CPU charged (the default), a line is queued and
+    answered BoardCpu.command_cycles after its line end arrives, at rest,
+    and the next line waits for the main loop to be done with it."""
+    from plotter_bridge.motion.planner import BOARD_CPU
+    from plotter_bridge.sim.firmware_core import CYCLES_PER_S
+    b = MockBoard(MockBoardConfig(baud=115200), FirmwareCore(host_library()))
+    try:
+        b.core.transmitted()
+        b.rx.push(b"!!" + machine_line(0, "L 10 0") + machine_line(1, "L 10 0"), 0.0)
+        parse = BOARD_CPU.command_cycles / CYCLES_PER_S
+        end0 = b.rx.due(b"\n")
+        b._serial(end0)
+        assert b.core.queue_free == 6 and not b.core.transmitted()
+        b._serial(end0 + 0.999 * parse)
+        assert b.core.queue_free == 6
+        b._serial(end0 + parse)
+        assert b.core.queue_free == 5
+        assert b.core.rx_free() < 64                        # the second arrived meanwhile, and waits
+        b._serial(end0 + 1.999 * parse)
+        assert b.core.queue_free == 5
+        b._serial(end0 + 2 * parse)
+        assert b.core.queue_free == 4
+        sent = bytes(b._tx_out) + b.tx.pop_due(10.0)
+        assert b"ok N0" in sent and b"ok N1" in sent
+    finally:
+        b.close()
 
 
 def test_mock_board_replies_at_the_baud_rate(board):

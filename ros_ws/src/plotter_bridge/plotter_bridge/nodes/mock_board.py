@@ -45,6 +45,8 @@ SPECS = (
     ParamSpec("unplug_for", 2.0, "how long the port stays away on ~/unplug", "s", low=0.0, high=3600.0),
     ParamSpec("switches", "", "limit switches at the -X and -Y ends: 'X,Y' in mm from the power-on position "
                               "('' = none)", read_only=True),
+    ParamSpec("cpu", True, "charge each line the 8051's main-loop cycles (motion/planner.py BoardCpu), so that "
+                           "short commands come no faster than the chip parses them; false: no time", read_only=True),
     *MACHINE,
 )
 
@@ -90,7 +92,7 @@ class MockBoardNode(Node):
         switches = switches_mm(str(p["switches"]))
         config = MockBoardConfig(baud=int(p["baud"]), link=str(p["link"]), trace=str(p["trace"]),
                                  seq_log=str(p["seq_log"]), faults=parse_faults(str(p["faults"])),
-                                 machine=machine,
+                                 machine=machine, cpu=bool(p["cpu"]),
                                  switches=None if switches is None else
                                  (math.floor(switches[0] * machine.steps_per_mm),
                                   math.floor(switches[1] * machine.steps_per_mm)))

@@ -39,11 +39,13 @@ from .faults import FaultCounts, FaultSpec, FaultyChannel
 from .firmware_core import CYCLES_PER_S, FirmwareCore, find_library
 from plotter_bridge.link.protocol import DEFAULT_BAUD
 from plotter_bridge.motion.kinematics import Machine
+from plotter_bridge.motion.planner import BOARD_CPU
 from .uart import PacedLine
 
 TX_SIZE = 16          # firmware core/config.h: the transmit ring
 # Bytes the board acts on as soon as they arrive: line ends and the real-time bytes.
 RX_EVENTS = b"\n\r?!~\x18\x1b"
+RX_SIZE = 64             # core/config.h: the receive ring
 STALL = 0.003         # s: a pass of the loop this much later than it meant to wake is a stall
 PANEL_CATCH_UP_MS = 100   # panel ticks run at most this late: a stalled process does not replay seconds
 TRACE_FLUSH_S = 0.1      # s: longest a step waits in the trace's buffer while the board runs
@@ -62,6 +64,10 @@ class MockBoardConfig:
     # Limit switches at the -X and -Y ends: each closes at and beyond this motor position (steps from
     # where the board was powered on); None: a machine without them.
     switches: Optional[Tuple[int, int]] = None
+    # Charge each line the 8051's main-loop cycles (BoardCpu, `make -C firmware plancost`) in the share of
+    # the CPU its steps leave, so that short commands come no faster than the chip parses them; False:
+    # a board that parses and plans in no time.
+    cpu: bool = True
 
 
 class MockBoard:
@@ -89,6 +95,9 @@ class MockBoard:
         self.rx = PacedLine(config.baud)        # pty -> core, on the wire
         self.tx = PacedLine(config.baud)        # core -> pty: transmit ring and shift register
         self._tx_out = bytearray()              # sent by the UART, not yet written to the pty
+        self._busy_until = 0.0                  # config.cpu: board time the main loop is done with a line
+        self._parsing = False                   # ... which it has started on
+        self._lines_waiting = 0                 # line ends in the receive ring
         self._stop = threading.Event()
         self._thread: Optional[threading.Thread] = None
         self._lock = threading.Lock()           # events asked for by other threads
@@ -211,7 +220,7 @@ class MockBoard:
         or at most a millisecond while the board moves (its steps are
         caught up in batches), two while it rests."""
         wake = now + (0.001 if self.core.timer_running() else 0.002)
-        for t in (self.rx.due(RX_EVENTS), self.tx.due(b"\n"), self._tx_unblocked_at()):
+        for t in (self.rx.due(RX_EVENTS), self.tx.due(b"\n"), self._tx_unblocked_at(), self._busy()):
             if t is not None:
                 wake = min(wake, t)
         # From the time it is now: this pass's work has taken some of it.
@@ -228,13 +237,16 @@ class MockBoard:
         ring, and the main loop runs if it can."""
         data = self.rx.pop_due(t)
         if data:
+            free = self.core.rx_free()
             self.core.receive(data)
+            if self.core.rx_free() < free:             # (real-time bytes do not enter the ring)
+                self._lines_waiting += data.count(b"\n")
         self._main_loop(t)
 
     def _serial_due(self, t: float) -> Optional[float]:
         """When the main loop next has something to act on: a line end or a
         real-time byte arriving, or room again in the transmit ring."""
-        times = [x for x in (self.rx.due(RX_EVENTS), self._tx_unblocked_at()) if x is not None]
+        times = [x for x in (self.rx.due(RX_EVENTS), self._tx_unblocked_at(), self._busy()) if x is not None]
         return min(times) if times else None
 
     def _tx_blocked(self) -> bool:
@@ -246,16 +258,39 @@ class MockBoard:
             return None
         return self.tx.due() + (len(self.tx) - TX_SIZE - 2) * self.tx.byte_time
 
+    def _busy(self) -> Optional[float]:
+        """When the main loop is done with the line it parses, if it is not yet."""
+        return self._busy_until if self._busy_until > self.board_time else None
+
+    def _line_seconds(self) -> float:
+        """Board seconds the chip's main loop takes for a line, in what the steps leave of the CPU."""
+        left = 1.0
+        if self.core.timer_running():
+            left = max(0.05, 1.0 - BOARD_CPU.step_cycles / max(self.core.period(), 1))
+        return BOARD_CPU.command_cycles / (CYCLES_PER_S * left)
+
     def _main_loop(self, t: float) -> None:
         """Run the firmware's main loop (a line or a status report per pass)
-        while its replies fit in the transmit ring, and its panel tick for
-        each millisecond up to t."""
+        while its replies fit in the transmit ring and it is done with the
+        line before (config.cpu), and its panel tick for each millisecond up
+        to t."""
         self._tx_out += self.tx.pop_due(t)
         self._panel_ticks(t)
         for _ in range(4):
             if self._tx_blocked():
                 return
+            if self.config.cpu and self._lines_waiting and not self._parsing:
+                # The chip's main loop takes the line whole: its queue entry and its reply come at the end.
+                self._parsing = True
+                self._busy_until = t + self._line_seconds()
+            if self._parsing:
+                if t < self._busy_until:
+                    return
+                self._parsing = False
+                self._lines_waiting -= 1
             self.core.poll()
+            if self.core.rx_free() == RX_SIZE:
+                self._lines_waiting = 0             # taken, or flushed by a reset or an e-stop
             self._switches(stepped=False)
             out = self.core.transmitted()
             if out:
@@ -303,6 +338,8 @@ class MockBoard:
             self.rx.clear()
             self.tx.clear()
             self._tx_out.clear()
+            self._lines_waiting = 0
+            self._parsing = False
 
     def _sync_seq_log(self) -> None:
         """Append the commands started since the last call to the log file."""
