@@ -15,8 +15,9 @@ Rates are in steps per second and distances in steps, as on the board.
 The board only keeps going while commands arrive faster than it finishes
 them; a command that ends with nothing queued behind it is braked to a stop
 (an underrun).  `cap_for_link` lowers the cruise rate of commands shorter
-in time than the serial link needs to deliver a command, so that a dense
-polyline is drawn at the link's pace without stopping at every command.
+in time than the serial link needs to deliver a command, or the board's
+8051 to parse and plan it (BoardCpu), so that a dense polyline is drawn at
+that pace without stopping at every command.
 """
 from __future__ import annotations
 
