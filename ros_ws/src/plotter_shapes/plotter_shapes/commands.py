@@ -116,7 +116,8 @@ def run_svg(args: argparse.Namespace) -> int:
     return _run_drawing(lambda: svg_program(args.file, placement, args.feed, args.optimize), args.file, args)
 
 
-_SVG = Command("svg", "plot an SVG drawing (circles and arcs as arcs, curves as lines)", _configure_svg, run_svg)
+_SVG = Command("svg", "plot an SVG drawing (circles and arcs as arcs, curves as arcs fitted within 0.01 mm)",
+               _configure_svg, run_svg)
 
 
 def _configure_text(p: argparse.ArgumentParser) -> None:
