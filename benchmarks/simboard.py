@@ -34,6 +34,7 @@ from dataclasses import dataclass, field
 from typing import Callable, List, Optional, Tuple
 
 from plotter_bridge.sim.firmware_core import CYCLES_PER_S, FirmwareCore
+from plotter_bridge.sim.main_loop_cpu import LineCharge, share_left
 
 TX_SIZE = 16          # core/config.h: the transmit ring
 RX_SIZE = 64          # core/config.h: the receive ring
@@ -78,9 +79,7 @@ class SimBoard:
         self._to_host = bytearray()         # arrived at the host, not yet read
         self._tick_at = NEVER
         self._last_tick = NEVER
-        self._busy_until = 0                # main loop busy with a line until then
-        self._parsing = False               # ... which it has started on (line_cycles)
-        self._lines_waiting = 0             # line ends in the receive ring
+        self._lines = LineCharge(self._line_time)
         self._next_host = 0
         self.port = _HostPort(self)
         self._main_loop()                   # the power-on banner
@@ -109,27 +108,20 @@ class SimBoard:
     def _blocked(self) -> bool:
         return len(self._tx_queue) > TX_SIZE + 1
 
+    def _line_time(self) -> int:
+        """Machine cycles the main loop takes for a line (line_cycles), in what the steps leave."""
+        return round(self.line_cycles / share_left(self.core, self.step_cycles))
+
     def _main_loop(self) -> None:
         """Run the main loop while it can make progress."""
         core = self.core
         while not self._blocked():
-            if self.line_cycles and self._lines_waiting and not self._parsing:
-                # The line is taken whole: its queue entry and its reply come at the end.
-                self._parsing = True
-                left = 1.0
-                if self.step_cycles and core.timer_running():
-                    left = max(0.05, 1.0 - self.step_cycles / max(core.period(), 1))
-                self._busy_until = self.t + round(self.line_cycles / left)
-            if self._parsing:
-                if self.t < self._busy_until:
-                    return
-                self._parsing = False
-                self._lines_waiting -= 1
+            if not self._lines.may_poll(self.t):
+                return
             free = core.rx_free()
             was_running = core.timer_running()
             core.poll()
-            if core.rx_free() == RX_SIZE:
-                self._lines_waiting = 0
+            self._lines.polled(core.rx_free() == RX_SIZE)
             out = core.transmitted()
             if out:
                 if not self._tx_queue:
@@ -153,7 +145,7 @@ class SimBoard:
         stats = self.stats
         while self.t < end:
             blocked_from = self.t if self._blocked() else None
-            busy = self._busy_until if self._busy_until > self.t else NEVER
+            busy = self._lines.due(self.t) or NEVER
             t = min(self._tick_at, self._rx_done, self._tx_done, self._next_host, busy)
             if blocked_from is not None:
                 stats.main_loop_blocked += (t - blocked_from) / CYCLES_PER_S
@@ -182,7 +174,7 @@ class SimBoard:
                 if core.rx_free() == 0 and byte not in REALTIME:
                     stats.rx_overflows += 1
                 elif byte == b"\n":
-                    self._lines_waiting += 1
+                    self._lines.arrived(1)
                 core.receive(byte)
                 self._rx_done = t + self.byte_cycles if self._to_board else NEVER
                 wake = True

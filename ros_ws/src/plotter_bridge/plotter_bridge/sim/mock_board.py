@@ -40,6 +40,7 @@ from .firmware_core import CYCLES_PER_S, FirmwareCore, find_library
 from plotter_bridge.link.protocol import DEFAULT_BAUD
 from plotter_bridge.motion.kinematics import Machine
 from plotter_bridge.motion.planner import BOARD_CPU
+from .main_loop_cpu import LineCharge, share_left
 from .uart import PacedLine
 
 TX_SIZE = 16          # firmware core/config.h: the transmit ring
@@ -95,9 +96,7 @@ class MockBoard:
         self.rx = PacedLine(config.baud)        # pty -> core, on the wire
         self.tx = PacedLine(config.baud)        # core -> pty: transmit ring and shift register
         self._tx_out = bytearray()              # sent by the UART, not yet written to the pty
-        self._busy_until = 0.0                  # config.cpu: board time the main loop is done with a line
-        self._parsing = False                   # ... which it has started on
-        self._lines_waiting = 0                 # line ends in the receive ring
+        self._lines = LineCharge(self._line_seconds)
         self._stop = threading.Event()
         self._thread: Optional[threading.Thread] = None
         self._lock = threading.Lock()           # events asked for by other threads
@@ -220,7 +219,7 @@ class MockBoard:
         or at most a millisecond while the board moves (its steps are
         caught up in batches), two while it rests."""
         wake = now + (0.001 if self.core.timer_running() else 0.002)
-        for t in (self.rx.due(RX_EVENTS), self.tx.due(b"\n"), self._tx_unblocked_at(), self._busy()):
+        for t in (self.rx.due(RX_EVENTS), self.tx.due(b"\n"), self._tx_unblocked_at(), self._busy(now)):
             if t is not None:
                 wake = min(wake, t)
         # From the time it is now: this pass's work has taken some of it.
@@ -240,13 +239,14 @@ class MockBoard:
             free = self.core.rx_free()
             self.core.receive(data)
             if self.core.rx_free() < free:             # (real-time bytes do not enter the ring)
-                self._lines_waiting += data.count(b"\n")
+                self._lines.arrived(data.count(b"\n"))
         self._main_loop(t)
 
     def _serial_due(self, t: float) -> Optional[float]:
         """When the main loop next has something to act on: a line end or a
         real-time byte arriving, or room again in the transmit ring."""
-        times = [x for x in (self.rx.due(RX_EVENTS), self._tx_unblocked_at(), self._busy()) if x is not None]
+        times = [x for x in (self.rx.due(RX_EVENTS), self._tx_unblocked_at(), self._busy(self.board_time))
+                 if x is not None]
         return min(times) if times else None
 
     def _tx_blocked(self) -> bool:
@@ -258,16 +258,15 @@ class MockBoard:
             return None
         return self.tx.due() + (len(self.tx) - TX_SIZE - 2) * self.tx.byte_time
 
-    def _busy(self) -> Optional[float]:
-        """When the main loop is done with the line it parses, if it is not yet."""
-        return self._busy_until if self._busy_until > self.board_time else None
+    def _busy(self, after: float) -> Optional[float]:
+        """When the main loop is done with the line it parses, if that is after `after`."""
+        return self._lines.due(after)
 
     def _line_seconds(self) -> float:
-        """Board seconds the chip's main loop takes for a line, in what the steps leave of the CPU."""
-        left = 1.0
-        if self.core.timer_running():
-            left = max(0.05, 1.0 - BOARD_CPU.step_cycles / max(self.core.period(), 1))
-        return BOARD_CPU.command_cycles / (CYCLES_PER_S * left)
+        """Board seconds the chip's main loop takes for a line (config.cpu), in what the steps leave of the CPU."""
+        if not self.config.cpu:
+            return 0.0
+        return BOARD_CPU.command_cycles / (CYCLES_PER_S * share_left(self.core, BOARD_CPU.step_cycles))
 
     def _main_loop(self, t: float) -> None:
         """Run the firmware's main loop (a line or a status report per pass)
@@ -279,18 +278,10 @@ class MockBoard:
         for _ in range(4):
             if self._tx_blocked():
                 return
-            if self.config.cpu and self._lines_waiting and not self._parsing:
-                # The chip's main loop takes the line whole: its queue entry and its reply come at the end.
-                self._parsing = True
-                self._busy_until = t + self._line_seconds()
-            if self._parsing:
-                if t < self._busy_until:
-                    return
-                self._parsing = False
-                self._lines_waiting -= 1
+            if not self._lines.may_poll(t):
+                return
             self.core.poll()
-            if self.core.rx_free() == RX_SIZE:
-                self._lines_waiting = 0             # taken, or flushed by a reset or an e-stop
+            self._lines.polled(self.core.rx_free() == RX_SIZE)
             self._switches(stepped=False)
             out = self.core.transmitted()
             if out:
@@ -338,8 +329,7 @@ class MockBoard:
             self.rx.clear()
             self.tx.clear()
             self._tx_out.clear()
-            self._lines_waiting = 0
-            self._parsing = False
+            self._lines.clear()
 
     def _sync_seq_log(self) -> None:
         """Append the commands started since the last call to the log file."""
