@@ -13,10 +13,10 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Iterable, List, Optional, Sequence, Tuple
+from typing import Iterable, List, Sequence, Tuple
 
-Point = Tuple[float, float]
-Polyline = List[Point]
+# program_polylines is this module's too for its callers (cli/run.py, the web page's jobs).
+from plotter_bridge.gcode.polylines import Point, Polyline, SegmentGrid, arc_points, program_polylines  # noqa: F401
 
 DRAWN_COLOUR = "black"
 PROGRAMMED_COLOUR = "#8ec5ff"
@@ -54,20 +54,6 @@ class Area:
 
 # --- programmed paths ---------------------------------------------------------------
 
-def arc_points(x0: float, y0: float, x1: float, y1: float, cx: float, cy: float, cw: bool,
-               max_step_mm: float = 0.25) -> Polyline:
-    """An arc (start == end: a full circle) as a polyline, points at most max_step_mm apart."""
-    a0 = math.atan2(y0 - cy, x0 - cx)
-    a1 = math.atan2(y1 - cy, x1 - cx)
-    r = math.hypot(x0 - cx, y0 - cy)
-    sweep = ((a0 - a1) if cw else (a1 - a0)) % (2 * math.pi) or 2 * math.pi
-    n = max(8, int(math.ceil(r * sweep / max_step_mm)))
-    sign = -1 if cw else 1
-    pts = [(cx + r * math.cos(a0 + sign * sweep * k / n), cy + r * math.sin(a0 + sign * sweep * k / n))
-           for k in range(n)]
-    return pts + [(x1, y1)]
-
-
 def segment_points(seg) -> Polyline:
     """A plotter_shapes Line or Arc as a polyline (mm)."""
     if hasattr(seg, "cx"):
@@ -86,53 +72,7 @@ def figure_polylines(figure) -> List[Polyline]:
     return out
 
 
-def program_polylines(text: str, start: Point = (0.0, 0.0), options=None) -> List[Polyline]:
-    """The pen-down moves of a G-code program, as continuous polylines (mm);
-    `options` is its dialect (gcode.dialect.GCodeOptions, default linuxcnc)."""
-    from plotter_bridge.gcode.dialect import GCodeOptions
-    from plotter_bridge.gcode.parser import parse, moves_of
-    out: List[Polyline] = []
-    end: Optional[Point] = None
-    for m in moves_of(parse(text, start=start, options=options or GCodeOptions())):
-        if m.rapid or m.pen != "down":
-            end = None
-            continue
-        if m.kind == "arc":
-            pts = arc_points(m.sx, m.sy, m.x, m.y, m.cx, m.cy, bool(m.cw))
-        else:
-            pts = [(m.sx, m.sy), (m.x, m.y)]
-        if end is not None and math.dist(end, pts[0]) < 1e-6:
-            out[-1].extend(pts[1:])
-        else:
-            out.append(pts)
-        end = pts[-1]
-    return out
-
-
 # --- what was drawn ------------------------------------------------------------------
-
-class _SegmentGrid:
-    """Programmed segments bucketed by cell, for fast nearest checks."""
-
-    def __init__(self, polylines: Sequence[Polyline], cell: float = 5.0) -> None:
-        self.cell = cell
-        self.cells: dict = {}
-        for line in polylines:
-            for a, b in zip(line, line[1:]):
-                for i in range(int(min(a[0], b[0]) // cell) - 1, int(max(a[0], b[0]) // cell) + 2):
-                    for j in range(int(min(a[1], b[1]) // cell) - 1, int(max(a[1], b[1]) // cell) + 2):
-                        self.cells.setdefault((i, j), []).append((a, b))
-
-    def near(self, p: Point, tol: float) -> bool:
-        px, py = p
-        for (x0, y0), (x1, y1) in self.cells.get((int(px // self.cell), int(py // self.cell)), ()):
-            dx, dy = x1 - x0, y1 - y0
-            l2 = dx * dx + dy * dy
-            t = 0.0 if l2 == 0 else max(0.0, min(1.0, ((px - x0) * dx + (py - y0) * dy) / l2))
-            if math.hypot(px - x0 - t * dx, py - y0 - t * dy) <= tol:
-                return True
-        return False
-
 
 def _thin(points: Iterable[Point], spacing: float) -> List[Point]:
     """Every point at least `spacing` (taxicab) from the one kept before it, and the last."""
@@ -163,7 +103,7 @@ def _split(flags_points: Iterable[Tuple[bool, Point]]) -> List[Run]:
 def runs_near_path(trace_mm: Iterable[Point], programmed: Sequence[Polyline],
                    tol_mm: float = 0.05, spacing_mm: float = 0.2) -> List[Run]:
     """Trace points (every spacing_mm) split into drawn (on the programmed path) and travel."""
-    grid = _SegmentGrid(programmed)
+    grid = SegmentGrid(programmed)
     return _split((grid.near(p, tol_mm), p) for p in _thin(trace_mm, spacing_mm))
 
 
