@@ -15,7 +15,7 @@ import pytest
 
 from firmware_build import FIRMWARE, host_library
 
-CORE = ["hal/host/core_api.c", "core/stepper.c", "core/planner.c", "core/protocol.c", "core/serial.c",
+CORE = ["hal/host/core_api.c", "core/stepper.c", "core/planner.c", "core/protocol.c", "core/serial.c", "core/follow.c",
         "build/ramp_table.c"]
 SANITIZE = ["-fsanitize=address,undefined", "-fno-sanitize-recover=all",
             "-fno-omit-frame-pointer"]

@@ -10,6 +10,7 @@
 #include "../../core/protocol.h"
 #include "../../core/ramp.h"
 #include "../../core/panel.h"
+#include "../../core/follow.h"
 
 uint16_t host_period;
 uint8_t host_timer_on;
@@ -240,3 +241,18 @@ int32_t core_run_steps(int32_t *out, int32_t cap)
     }
     return n;
 }
+
+/* Line following, driven by the caller's virtual sheet: core_follow_tick
+ * takes the sensor bits of one step period and answers as follow_tick. */
+void core_follow_start(int heading, int lost_steps, uint32_t max_steps, int home_steps)
+{
+    follow_args_t a;
+    a.heading = (uint8_t)heading;
+    a.lost_steps = (uint16_t)lost_steps;
+    a.max_steps = max_steps;
+    a.home_steps = (uint16_t)home_steps;
+    follow_start(&a);
+}
+
+int core_follow_tick(int black) { return follow_tick((uint8_t)black); }
+int core_follow_heading(void) { return follow_heading(); }

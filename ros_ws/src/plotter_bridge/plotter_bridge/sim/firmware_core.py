@@ -133,6 +133,18 @@ class FirmwareCore:
         z = self._lib.core_pos_z()
         return bool(self._lib.core_tick()) or self._lib.core_pos_z() != z
 
+    # --- line following (core/follow.h), the caller's sheet giving the sensors -------------
+    def follow_start(self, heading: int, lost_steps: int, max_steps: int, home_steps: int) -> None:
+        """Start following: heading in notches of 15 degrees (0: +X), the
+        stops' distances in steps (max_steps 0: no limit)."""
+        self._lib.core_follow_start(ctypes.c_int(heading), ctypes.c_int(lost_steps),
+                                    ctypes.c_uint32(max_steps), ctypes.c_int(home_steps))
+
+    def follow_tick(self, black: int) -> int:
+        """One step period with these sensor bits (bit i: sensor i on black):
+        the step to make (0 +X, 1 -X, 2 +Y, 3 -Y) or a stop (0x80 and up)."""
+        return int(self._lib.core_follow_tick(ctypes.c_int(black)))
+
     # --- state --------------------------------------------------------
     @property
     def position(self) -> tuple[int, int]:

@@ -1,0 +1,60 @@
+/* follow.h - line following (seed 003): steering by three reflective sensors
+ * around the pen, one decision per step period.
+ *
+ * The sensors sit on a ring round the pen, 120 degrees apart (sensor 0 at
+ * +Y, 1 at 210 degrees, 2 at 330), and read black over the line.  The line
+ * is wider than the ring (firmware/README.md): with the pen on the line all
+ * three read black, and a sensor that reads white says the pen has drifted
+ * towards that side.  Each step goes half way between the heading and the
+ * direction of the black sensors (the seed's table 1: towards the line);
+ * the heading turns a notch (15 degrees) towards it each time the error
+ * summed over the steps reaches FOLLOW_TURN, so on a straight line
+ * the pen settles with all three black and the heading along the line.
+ * Steps are point-by-point comparison steps, one axis each, along the
+ * direction chosen.
+ *
+ * Plain C, no hardware: one call of follow_tick() per step period with the
+ * sensor bits, answering the step to make.  The host build drives it from a
+ * virtual sheet (plotter_bridge/sim/follow.py); no board image has it yet
+ * (firmware/README.md, "Line following"). */
+#ifndef FOLLOW_H
+#define FOLLOW_H
+
+#include <stdint.h>
+
+#define FOLLOW_DIRS        24   /* headings, 15 degrees apart; 0 is +X, counter-clockwise */
+#define FOLLOW_PROGRESS_STEPS 512 /* the pen must get a quarter of this far on in this many steps */
+#ifndef FOLLOW_TURN
+#define FOLLOW_TURN        96   /* the steering's error, notches x steps, that turns the heading a notch */
+#endif
+
+/* follow_tick's answer: a step (axis and sign) or why the mode stopped. */
+#define FOLLOW_STEP_XP     0
+#define FOLLOW_STEP_XN     1
+#define FOLLOW_STEP_YP     2
+#define FOLLOW_STEP_YN     3
+#define FOLLOW_IS_STOP(r)  ((r) >= 0x80)
+#define FOLLOW_HOME        0x80 /* back through the start, across the heading it set out on */
+#define FOLLOW_LOST        0x81 /* no sensor on black for the lost distance, or no way on */
+#define FOLLOW_DISTANCE    0x82 /* followed the distance asked for */
+
+#define FOLLOW_SENSOR_MASK 0x07 /* bit i: sensor i reads black */
+
+typedef struct {
+    uint8_t heading;          /* 0 .. FOLLOW_DIRS-1: the direction to set out in */
+    uint16_t lost_steps;      /* steps with no sensor on black before FOLLOW_LOST */
+    uint32_t max_steps;       /* steps before FOLLOW_DISTANCE; 0: no limit */
+    uint16_t home_steps;      /* the start gate's half width, and how far the pen must go from the start
+                                 before crossing the gate counts as home */
+} follow_args_t;
+
+void follow_start(const follow_args_t *args);
+uint8_t follow_tick(uint8_t black);
+
+/* For reports and tests: the heading, the steps taken, and the pen's steps from the start. */
+uint8_t follow_heading(void);
+uint32_t follow_travelled(void);
+int32_t follow_dx(void);
+int32_t follow_dy(void);
+
+#endif

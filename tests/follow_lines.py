@@ -1,0 +1,149 @@
+"""Lines to follow, and how far a followed path strays from them.
+
+Each line is a polyline in mm with where the pen is put on it and the way
+it sets out; tests/test_follow.py runs the firmware's follow mode on them;
+`python tests/follow_lines.py` prints the figures of firmware/README.md
+("Line following"): sensors 3 mm from the pen, 80 steps/mm.
+"""
+from __future__ import annotations
+
+import math
+import sys
+from dataclasses import dataclass
+from typing import List, Sequence, Tuple
+
+import numpy as np
+
+Point = Tuple[float, float]
+CAP_STEPS = 100_000             # a run that has not stopped by then is reported as "cap"
+
+
+@dataclass(frozen=True)
+class Line:
+    name: str
+    points: Tuple[Point, ...]
+    start: Point
+    heading_deg: float
+    closed: bool = True
+    sharp: bool = False          # has corners the pen overshoots
+
+    @property
+    def length(self) -> float:
+        return sum(math.dist(a, b) for a, b in zip(self.points, self.points[1:]))
+
+
+def _curve(f, n: int) -> Tuple[Point, ...]:
+    return tuple(f(2 * math.pi * k / n) for k in range(n + 1))
+
+
+def circle(cx: float, cy: float, r: float, ccw: bool = True) -> Line:
+    pts = _curve(lambda t: (cx + r * math.cos(t), cy + r * math.sin(t)), 720)
+    return Line(f"circle r{r:g} {'ccw' if ccw else 'cw'}", pts, (cx + r, cy), 90.0 if ccw else 270.0)
+
+
+def square(cx: float, cy: float, side: float, ccw: bool = True) -> Line:
+    h = side / 2
+    pts = ((cx - h, cy - h), (cx + h, cy - h), (cx + h, cy + h), (cx - h, cy + h), (cx - h, cy - h))
+    return Line(f"square {side:g} {'ccw' if ccw else 'cw'}", pts, (cx + h, cy), 90.0 if ccw else 270.0,
+                sharp=True)
+
+
+def rounded_rectangle(cx: float, cy: float, w: float, h: float, r: float) -> Line:
+    pts: List[Point] = []
+    corners = ((cx + w / 2 - r, cy + h / 2 - r, 0), (cx - w / 2 + r, cy + h / 2 - r, 90),
+               (cx - w / 2 + r, cy - h / 2 + r, 180), (cx + w / 2 - r, cy - h / 2 + r, 270))
+    for x, y, a0 in corners:
+        for k in range(31):
+            a = math.radians(a0 + 3 * k)
+            pts.append((x + r * math.cos(a), y + r * math.sin(a)))
+    pts.append(pts[0])
+    return Line(f"rounded rectangle {w:g}x{h:g} r{r:g}", tuple(pts), (cx + w / 2, cy), 90.0)
+
+
+def figure_eight(cx: float, cy: float, a: float) -> Line:
+    """A lemniscate of Gerono on its side: it crosses itself at the centre."""
+    pts = _curve(lambda t: (cx + a * math.cos(t), cy + a / 2 * math.sin(2 * t)), 1440)
+    return Line(f"figure eight {2 * a:g}", pts, (cx + a, cy), 90.0)
+
+
+def sine_wave(x0: float, y0: float, length: float, amplitude: float, wavelength: float) -> Line:
+    n = 600
+    pts = tuple((x0 + length * k / n, y0 + amplitude * math.sin(2 * math.pi * length * k / n / wavelength))
+                for k in range(n + 1))
+    return Line(f"sine wave {length:g} mm", pts, pts[30], 0.0, closed=False)
+
+
+def with_gap(line: Line, gap_mm: float) -> Tuple[Tuple[Point, ...], ...]:
+    """The line as two pieces with a gap of gap_mm half way round."""
+    pts = line.points
+    half = len(pts) // 2
+    out: List[Point] = []
+    cut = None
+    for a, b in zip(pts[:half], pts[1:half + 1]):
+        out.append(a)
+    # Walk on from the half-way point until gap_mm of the line is skipped.
+    gone = 0.0
+    k = half
+    while k + 1 < len(pts) and gone < gap_mm:
+        gone += math.dist(pts[k], pts[k + 1])
+        k += 1
+    cut = k
+    return (tuple(out + [pts[half]]), tuple(pts[cut:]))
+
+
+def distances(trace: Sequence[Point], lines: Sequence[Sequence[Point]]) -> np.ndarray:
+    """Each trace point's distance from the nearest line centre."""
+    segs_a = []
+    segs_b = []
+    for line in lines:
+        p = np.asarray(line, dtype=float)
+        segs_a.append(p[:-1])
+        segs_b.append(p[1:])
+    a = np.concatenate(segs_a)
+    ab = np.concatenate(segs_b) - a
+    l2 = np.maximum((ab ** 2).sum(1), 1e-12)
+    out = np.empty(len(trace))
+    for i, (x, y) in enumerate(trace):
+        q = np.array((x, y))
+        t = np.clip(((q - a) * ab).sum(1) / l2, 0.0, 1.0)
+        out[i] = np.sqrt((((a + t[:, None] * ab) - q) ** 2).sum(1)).min()
+    return out
+
+
+def path_length(trace: Sequence[Point], every: int = 20) -> float:
+    """The trace's length, sampled every few steps so that the staircase of single-axis steps counts as
+    the path it makes, not its Manhattan length."""
+    pts = list(trace[::every]) + [trace[-1]]
+    return sum(math.dist(a, b) for a, b in zip(pts, pts[1:]))
+
+
+def main(argv: Sequence[str]) -> int:
+    sys.path[:0] = ["ros_ws/src/plotter_bridge"]
+    from plotter_bridge.sim.firmware_core import FirmwareCore
+    from plotter_bridge.sim.follow import FollowArgs, follow
+    from plotter_bridge.sim.sheet import SensorRing, Sheet
+    core = FirmwareCore(argv[0] if argv else None)
+    ring = SensorRing(3.0)
+    print("| line | width mm | why it stopped | path / line | most off centre mm |")
+    print("|---|---|---|---|---|")
+    for width in (7.0, 8.0):
+        for line in LINES:
+            sheet = Sheet([line.points], width)
+            run = follow(core, sheet, ring, FollowArgs(line.start, line.heading_deg), cap_steps=CAP_STEPS)
+            trace = run.trace_mm(80.0)
+            dev = distances(trace[::4], [line.points]).max()
+            print(f"| {line.name} | {width:g} | {run.reason} | {path_length(trace) / line.length:.2f} | {dev:.2f} |",
+                  flush=True)
+    return 0
+
+
+LINES = (
+    circle(100, 100, 30), circle(100, 100, 30, ccw=False), circle(60, 140, 12),
+    square(100, 100, 60), square(150, 80, 40, ccw=False),
+    rounded_rectangle(100, 100, 80, 50, 10),
+    figure_eight(100, 100, 40),
+)
+
+
+if __name__ == "__main__":
+    sys.exit(main(sys.argv[1:]))
