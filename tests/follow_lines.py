@@ -74,21 +74,14 @@ def sine_wave(x0: float, y0: float, length: float, amplitude: float, wavelength:
 
 
 def with_gap(line: Line, gap_mm: float) -> Tuple[Tuple[Point, ...], ...]:
-    """The line as two pieces with a gap of gap_mm half way round."""
+    """The line as two pieces with a gap of at least gap_mm half way round."""
     pts = line.points
     half = len(pts) // 2
-    out: List[Point] = []
-    cut = None
-    for a, b in zip(pts[:half], pts[1:half + 1]):
-        out.append(a)
-    # Walk on from the half-way point until gap_mm of the line is skipped.
-    gone = 0.0
-    k = half
-    while k + 1 < len(pts) and gone < gap_mm:
-        gone += math.dist(pts[k], pts[k + 1])
-        k += 1
-    cut = k
-    return (tuple(out + [pts[half]]), tuple(pts[cut:]))
+    cut, gone = half, 0.0
+    while cut + 1 < len(pts) and gone < gap_mm:
+        gone += math.dist(pts[cut], pts[cut + 1])
+        cut += 1
+    return pts[:half + 1], pts[cut:]
 
 
 def distances(trace: Sequence[Point], lines: Sequence[Sequence[Point]]) -> np.ndarray:

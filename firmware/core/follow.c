@@ -143,8 +143,3 @@ uint8_t follow_tick(uint8_t black)
     check_home();
     return step;
 }
-
-uint8_t follow_heading(void) { return f_heading; }
-uint32_t follow_travelled(void) { return f_travelled; }
-int32_t follow_dx(void) { return f_dx; }
-int32_t follow_dy(void) { return f_dy; }

@@ -24,16 +24,13 @@
 
 #define FOLLOW_DIRS        24   /* headings, 15 degrees apart; 0 is +X, counter-clockwise */
 #define FOLLOW_PROGRESS_STEPS 512 /* the pen must get a quarter of this far on in this many steps */
-#ifndef FOLLOW_TURN
 #define FOLLOW_TURN        96   /* the steering's error, notches x steps, that turns the heading a notch */
-#endif
 
 /* follow_tick's answer: a step (axis and sign) or why the mode stopped. */
 #define FOLLOW_STEP_XP     0
 #define FOLLOW_STEP_XN     1
 #define FOLLOW_STEP_YP     2
 #define FOLLOW_STEP_YN     3
-#define FOLLOW_IS_STOP(r)  ((r) >= 0x80)
 #define FOLLOW_HOME        0x80 /* back through the start, across the heading it set out on */
 #define FOLLOW_LOST        0x81 /* no sensor on black for the lost distance, or no way on */
 #define FOLLOW_DISTANCE    0x82 /* followed the distance asked for */
@@ -50,11 +47,5 @@ typedef struct {
 
 void follow_start(const follow_args_t *args);
 uint8_t follow_tick(uint8_t black);
-
-/* For reports and tests: the heading, the steps taken, and the pen's steps from the start. */
-uint8_t follow_heading(void);
-uint32_t follow_travelled(void);
-int32_t follow_dx(void);
-int32_t follow_dy(void);
 
 #endif

@@ -255,4 +255,3 @@ void core_follow_start(int heading, int lost_steps, uint32_t max_steps, int home
 }
 
 int core_follow_tick(int black) { return follow_tick((uint8_t)black); }
-int core_follow_heading(void) { return follow_heading(); }
