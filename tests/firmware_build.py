@@ -1,7 +1,8 @@
 """Builds the firmware's host library (and 8051 images) once per test session.
 
 Without arguments: the default build, firmware/build/.  With build options
-(firmware/Makefile, e.g. INTERP="dda", DRIVE="phase3", ZAXIS="1", BAUD="115200" or CPU6T="1"), the
+(firmware/Makefile, e.g. INTERP="dda", DRIVE="phase3", ZAXIS="1", FOLLOW="1", BAUD="115200" or
+CPU6T="1"), the
 build of those options in its own directory, firmware/build/<options>/.
 """
 import os
@@ -13,11 +14,11 @@ from pathlib import Path
 REPO_ROOT = Path(__file__).resolve().parent.parent
 FIRMWARE = REPO_ROOT / "firmware"
 
-DEFAULTS = {"INTERP": "pbp", "DRIVE": "stepdir", "ZAXIS": "0", "BAUD": "9600", "CPU6T": "0"}
+DEFAULTS = {"INTERP": "pbp", "DRIVE": "stepdir", "ZAXIS": "0", "FOLLOW": "0", "BAUD": "9600", "CPU6T": "0"}
 
 
 # Options that are on/off flags: their directory name when on.
-FLAG_NAMES = {"ZAXIS": "z", "BAUD": "b115200", "CPU6T": "6t"}
+FLAG_NAMES = {"ZAXIS": "z", "FOLLOW": "follow", "BAUD": "b115200", "CPU6T": "6t"}
 
 
 def build_dir(**options) -> Path:

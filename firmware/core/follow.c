@@ -2,6 +2,9 @@
  * (follow.h says how it steers). */
 #include "hal.h"
 #include "follow.h"
+#ifdef FOLLOW
+#include "stepper.h"
+#endif
 
 #define HALF   (FOLLOW_DIRS / 2)
 #define NONE   0xFF
@@ -12,7 +15,7 @@ static const ROM int8_t cos24[FOLLOW_DIRS] = {
     -64, -62, -55, -45, -32, -17, 0, 17, 32, 45, 55, 62
 };
 #define COS(i) cos24[i]
-#define SIN(i) cos24[((i) + FOLLOW_DIRS - 6) % FOLLOW_DIRS]
+#define SIN(i) cos24[(i) >= 6 ? (i) - 6 : (i) + FOLLOW_DIRS - 6]
 
 /* By the black sensors (bit i: sensor i), the direction of the line from
  * the pen: one sensor's own direction, or half way between two (away from
@@ -20,126 +23,220 @@ static const ROM int8_t cos24[FOLLOW_DIRS] = {
  * 330 degrees are headings 6, 14 and 22. */
 static const ROM uint8_t line_dir[8] = { NONE, 6, 14, 10, 22, 2, 18, NONE };
 
-static XDATA follow_args_t f_args;
-static XDATA uint8_t f_heading;      /* where the pen is going: the line's direction as far as it is known */
-static XDATA uint8_t f_dir;          /* the direction of this step */
-static XDATA int16_t f_turn;         /* the steering's error summed, notches x steps, + left */
-static XDATA int16_t f_judge;        /* point-by-point judgement along f_dir */
-static XDATA uint16_t f_lost;        /* steps since a sensor was last on black */
+/* The steering's state.  In the FOLLOW image it lies over the segment
+ * queue, which is empty while an F runs: the F is the only command queued
+ * (planner.c refuses others behind it), and the interrupt has taken it out
+ * of its slot before follow_service starts the steering.  The chip's 256
+ * bytes of XRAM hold nothing else it could use. */
+typedef struct {
+    follow_args_t args;
+    uint8_t heading;      /* where the pen is going: the line's direction as far as it is known */
+    uint8_t dir;          /* the direction of this step */
+    uint8_t armed;        /* the pen has been far enough from the start to come back to it */
+    uint8_t behind;       /* the pen was behind the start gate at the last step */
+    uint8_t stop;         /* the stop the next tick reports, 0: none */
+    int16_t turn;         /* the steering's error summed, notches x steps, + left */
+    int16_t judge;        /* point-by-point judgement along dir */
+    uint16_t lost;        /* steps since a sensor was last on black */
+    int16_t dx, dy;       /* the pen from the start, in steps */
+    int16_t cx, cy;       /* the pen at the last progress check */
+    int32_t along;        /* the pen from the start along the start heading, x 64 */
+    int32_t across;       /* ... and across it, x 64, + left */
+} steer_t;
+
+#ifdef FOLLOW
+#include "planner.h"
+typedef char steer_fits_in_queue[sizeof(steer_t) <= sizeof(queue) ? 1 : -1];
+#define S (*(XDATA steer_t *)queue)
 static XDATA uint32_t f_travelled;
-static XDATA int32_t f_dx, f_dy;     /* the pen from the start, in steps */
-static XDATA int32_t f_along;        /* ... along the start heading (x 64), at the last step */
-static XDATA uint8_t f_armed;        /* the pen has been far enough from the start to come back to it */
-static XDATA uint8_t f_stop;         /* the stop the next tick reports, 0: none */
-static XDATA int32_t f_cx, f_cy;     /* the pen at the last progress check */
+#else
+static steer_t S;
+static uint32_t f_travelled;
+#endif
 
 void follow_start(const follow_args_t *args)
 {
-    f_args = *args;
-    f_heading = f_dir = (uint8_t)(args->heading % FOLLOW_DIRS);
-    f_turn = 0;
-    f_judge = 0;
-    f_lost = 0;
+    uint8_t n = sizeof(steer_t);
+    XDATA uint8_t *p = (XDATA uint8_t *)&S;
+    do {
+        *p++ = 0;
+    } while (--n);
+    S.args = *args;
+    S.heading = S.dir = args->heading;
     f_travelled = 0;
-    f_dx = f_dy = 0;
-    f_along = 0;
-    f_armed = 0;
-    f_stop = 0;
-    f_cx = f_cy = 0;
 }
 
-static int32_t abs32(int32_t v) { return v < 0 ? -v : v; }
+static int16_t abs16(int16_t v) { return v < 0 ? -v : v; }
 
 /* After a step: every FOLLOW_PROGRESS_STEPS steps the pen must have got at
  * least a quarter as far on, or it is going back and forth where the line
  * ends or breaks off and the line counts as lost. */
 static void check_progress(void)
 {
-    if (f_travelled % FOLLOW_PROGRESS_STEPS)
+    if ((uint16_t)f_travelled & (FOLLOW_PROGRESS_STEPS - 1))
         return;
-    if (abs32(f_dx - f_cx) + abs32(f_dy - f_cy) < FOLLOW_PROGRESS_STEPS / 4)
-        f_stop = FOLLOW_LOST;
-    f_cx = f_dx;
-    f_cy = f_dy;
+    if ((uint16_t)(abs16(S.dx - S.cx) + abs16(S.dy - S.cy)) < FOLLOW_PROGRESS_STEPS / 4)
+        S.stop = FOLLOW_LOST;
+    S.cx = S.dx;
+    S.cy = S.dy;
 }
 
 /* After a step: the start gate is the line through the start across the
  * heading the pen set out on; crossing it forwards, within home_steps of
- * the start, once the pen has been twice that far away, is home. */
+ * the start, once the pen has been twice that far away, is home.  The pen
+ * stays within 32767 steps of its start, or the line counts as lost. */
 static void check_home(void)
 {
-    uint8_t h0 = (uint8_t)(f_args.heading % FOLLOW_DIRS);
-    int32_t gate = (int32_t)f_args.home_steps;
-    int32_t along = f_dx * COS(h0) + f_dy * SIN(h0);
-    int32_t across = f_dy * COS(h0) - f_dx * SIN(h0);
-    if (!f_armed) {
-        if (abs32(f_dx) > 2 * gate || abs32(f_dy) > 2 * gate)
-            f_armed = 1;
-    } else if (f_along < 0 && along >= 0 && abs32(across) <= gate * 64) {
-        f_stop = FOLLOW_HOME;
+    uint8_t behind = S.along < 0;
+    if (abs16(S.dx) == 32767 || abs16(S.dy) == 32767) {
+        S.stop = FOLLOW_LOST;
+    } else if (!S.armed) {
+        if ((uint16_t)abs16(S.dx) > (uint16_t)(S.args.home_steps << 1) ||
+            (uint16_t)abs16(S.dy) > (uint16_t)(S.args.home_steps << 1))
+            S.armed = 1;
+    } else if (!behind && S.behind) {
+        if ((uint32_t)(S.across < 0 ? -S.across : S.across) <= ((uint32_t)S.args.home_steps << 6))
+            S.stop = FOLLOW_HOME;
     }
-    f_along = along;
+    S.behind = behind;
+}
+
+/* v, in -FOLLOW_DIRS..2 FOLLOW_DIRS - 1, as a heading on the ring 0..FOLLOW_DIRS - 1. */
+static uint8_t wrap(int8_t v)
+{
+    if (v < 0)
+        v += FOLLOW_DIRS;
+    if (v >= FOLLOW_DIRS)
+        v -= FOLLOW_DIRS;
+    return (uint8_t)v;
 }
 
 uint8_t follow_tick(uint8_t black)
 {
-    uint8_t target = f_heading;
-    uint8_t line, step;
+    uint8_t target = S.heading;
+    uint8_t line;
     int8_t diff = 0;
     int8_t c, s;
 
-    if (f_stop)
-        return f_stop;
-    if (f_args.max_steps && f_travelled >= f_args.max_steps)
-        return f_stop = FOLLOW_DISTANCE;
+    if (S.stop)
+        return S.stop;
+    if (S.args.max_steps && f_travelled >= S.args.max_steps)
+        return S.stop = FOLLOW_DISTANCE;
     black &= FOLLOW_SENSOR_MASK;
     if (!black) {
-        if (++f_lost >= f_args.lost_steps)
-            return f_stop = FOLLOW_LOST;
+        if (++S.lost >= S.args.lost_steps)
+            return S.stop = FOLLOW_LOST;
     } else {
-        f_lost = 0;
+        S.lost = 0;
     }
 
     line = line_dir[black];
     if (line != NONE) {
-        diff = (int8_t)((line + FOLLOW_DIRS - f_heading) % FOLLOW_DIRS);
+        diff = (int8_t)(line - S.heading);
         if (diff > HALF)
             diff -= FOLLOW_DIRS;
+        else if (diff <= -HALF)
+            diff += FOLLOW_DIRS;
         if (diff == HALF)
             diff = 0;           /* the line straight behind says nothing of which way to turn */
-        target = (uint8_t)((f_heading + FOLLOW_DIRS + diff / 2) % FOLLOW_DIRS);
+        target = wrap((int8_t)(S.heading + (diff >= 0 ? diff >> 1 : -((-diff) >> 1))));
     }
     /* The heading turns by the steering's error summed over the steps, a
      * notch per FOLLOW_TURN: slower than the steps' own correction, so that
      * a drift is taken out sideways and only a bend of the line turns it. */
-    f_turn += diff;
-    if (f_turn >= FOLLOW_TURN) {
-        f_heading = (uint8_t)((f_heading + 1) % FOLLOW_DIRS);
-        f_turn -= FOLLOW_TURN;
-    } else if (f_turn <= -FOLLOW_TURN) {
-        f_heading = (uint8_t)((f_heading + FOLLOW_DIRS - 1) % FOLLOW_DIRS);
-        f_turn += FOLLOW_TURN;
+    S.turn += diff;
+    if (S.turn >= FOLLOW_TURN) {
+        S.heading = wrap((int8_t)(S.heading + 1));
+        S.turn -= FOLLOW_TURN;
+    } else if (S.turn <= -FOLLOW_TURN) {
+        S.heading = wrap((int8_t)(S.heading - 1));
+        S.turn += FOLLOW_TURN;
     }
 
     c = COS(target);
     s = SIN(target);
-    if (target != f_dir) {
+    if (target != S.dir) {
         /* A new direction starts on its major axis: steering that swaps
          * between two directions every step then still moves along both. */
-        f_dir = target;
-        f_judge = (c < 0 ? -c : c) >= (s < 0 ? -s : s) ? 0 : -1;
+        S.dir = target;
+        S.judge = (c < 0 ? -c : c) >= (s < 0 ? -s : s) ? 0 : -1;
     }
-    if (s == 0 || (c != 0 && f_judge >= 0)) {
-        step = c > 0 ? FOLLOW_STEP_XP : FOLLOW_STEP_XN;
-        f_dx += c > 0 ? 1 : -1;
-        f_judge -= s < 0 ? -s : s;
+    /* The start heading's cosine and sine (c0, s0): a step along X moves
+     * the pen c0 along it and -s0 across it, a step along Y s0 and c0. */
+    if (s == 0 || (c != 0 && S.judge >= 0)) {
+        S.judge -= s < 0 ? -s : s;
+        line = FOLLOW_STEP_XP;
+        s = SIN(S.args.heading);
+        c = COS(S.args.heading);
+        if (COS(target) < 0) {
+            line = FOLLOW_STEP_XN;
+            S.dx--;
+            s = -s;
+            c = -c;
+        } else {
+            S.dx++;
+        }
+        S.along += c;
+        S.across -= s;
     } else {
-        step = s > 0 ? FOLLOW_STEP_YP : FOLLOW_STEP_YN;
-        f_dy += s > 0 ? 1 : -1;
-        f_judge += c < 0 ? -c : c;
+        S.judge += c < 0 ? -c : c;
+        line = FOLLOW_STEP_YP;
+        c = COS(S.args.heading);
+        s = SIN(S.args.heading);
+        if (SIN(target) < 0) {
+            line = FOLLOW_STEP_YN;
+            S.dy--;
+            s = -s;
+            c = -c;
+        } else {
+            S.dy++;
+        }
+        S.along += s;
+        S.across += c;
     }
     f_travelled++;
     check_progress();
     check_home();
-    return step;
+    return line;
 }
+
+#ifdef FOLLOW
+volatile XDATA uint8_t follow_next = FOLLOW_IDLE;
+volatile XDATA uint8_t follow_state;
+
+uint32_t follow_travelled(void)
+{
+    return f_travelled;
+}
+
+/* The F's arguments sit in its segment (planner_follow): a = lost steps,
+ * b = the home gate, c = the distance (0: none), dirs = the heading. */
+void follow_service(uint8_t black)
+{
+    uint8_t next = follow_next;
+    if (next == FOLLOW_BEGIN) {
+        static XDATA follow_args_t a;
+        a.heading = st_seg.dirs;
+        a.lost_steps = (uint16_t)st_seg.a;
+        a.home_steps = (uint16_t)st_seg.b;
+        a.max_steps = (uint16_t)st_seg.c;
+        follow_start(&a);
+        follow_state = FOLLOW_STATE_RUNNING;
+        next = FOLLOW_WAIT;
+    }
+    if (next != FOLLOW_WAIT)
+        return;
+    next = follow_tick(black);
+    if (next & 0x80)
+        follow_state = (uint8_t)(next - FOLLOW_HOME + FOLLOW_STATE_HOME);
+    follow_next = next;
+}
+
+void follow_abort(void)
+{
+    if (follow_next != FOLLOW_IDLE) {
+        follow_next = FOLLOW_IDLE;
+        follow_state = FOLLOW_STATE_STOPPED;
+    }
+}
+#endif

@@ -15,8 +15,13 @@
  *
  * Plain C, no hardware: one call of follow_tick() per step period with the
  * sensor bits, answering the step to make.  The host build drives it from a
- * virtual sheet (plotter_bridge/sim/follow.py); no board image has it yet
- * (firmware/README.md, "Line following"). */
+ * virtual sheet (plotter_bridge/sim/follow.py).
+ *
+ * The FOLLOW=1 image runs it as the command F (firmware/PROTOCOL.md): the
+ * queued F becomes a segment of kind SEG_FOLLOW, and while it runs the main
+ * loop (follow_service) keeps one decided step in the mailbox follow_next,
+ * which the step interrupt takes at each period.  follow_tick's arithmetic
+ * (32-bit products) stays out of the interrupt, which calls no function. */
 #ifndef FOLLOW_H
 #define FOLLOW_H
 
@@ -40,12 +45,35 @@
 typedef struct {
     uint8_t heading;          /* 0 .. FOLLOW_DIRS-1: the direction to set out in */
     uint16_t lost_steps;      /* steps with no sensor on black before FOLLOW_LOST */
-    uint32_t max_steps;       /* steps before FOLLOW_DISTANCE; 0: no limit */
-    uint16_t home_steps;      /* the start gate's half width, and how far the pen must go from the start
+    uint16_t max_steps;       /* steps before FOLLOW_DISTANCE; 0: no limit */
+    uint16_t home_steps;      /* 0..16383: the start gate's half width, and how far the pen must go from the start
                                  before crossing the gate counts as home */
 } follow_args_t;
 
 void follow_start(const follow_args_t *args);
 uint8_t follow_tick(uint8_t black);
+
+#ifdef FOLLOW
+/* follow_next, the mailbox between the main loop and the step interrupt:
+ * a step (FOLLOW_STEP_*) or stop the interrupt takes, or one of these. */
+#define FOLLOW_QUEUED      0xFC /* an F is queued: nothing may queue behind it */
+#define FOLLOW_IDLE        0xFD /* no F queued or running */
+#define FOLLOW_BEGIN       0xFE /* the interrupt has loaded an F: the main loop starts it */
+#define FOLLOW_WAIT        0xFF /* the interrupt took the last answer: the main loop decides the next */
+extern volatile XDATA uint8_t follow_next;
+
+/* The mode's state in the status report (F field): what the last F did. */
+#define FOLLOW_STATE_NONE     0 /* no F since reset */
+#define FOLLOW_STATE_RUNNING  1
+#define FOLLOW_STATE_HOME     2 /* a stop: its code (FOLLOW_HOME...) - FOLLOW_HOME + 2 */
+#define FOLLOW_STATE_LOST     3
+#define FOLLOW_STATE_DISTANCE 4
+#define FOLLOW_STATE_STOPPED  5 /* ended by a reset, an e-stop or a limit (the A field says which) */
+extern volatile XDATA uint8_t follow_state;
+
+uint32_t follow_travelled(void);     /* steps followed by the current or last F */
+void follow_service(uint8_t black);  /* main loop: answer the interrupt's next step */
+void follow_abort(void);             /* the F, if one runs, ended by a reset or an alarm */
+#endif
 
 #endif

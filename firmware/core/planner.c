@@ -12,6 +12,9 @@
 #include "planner.h"
 #include "stepper.h"
 #include "ramp.h"
+#ifdef FOLLOW
+#include "follow.h"
+#endif
 
 XDATA segment_t queue[QUEUE_SLOTS];
 #ifdef INTERP_COMPARE
@@ -76,6 +79,10 @@ static uint8_t commit(void)
     XDATA uint8_t *dst;
     IDATA uint8_t *src;
     uint8_t n, next = (uint8_t)(q_head + 1);
+#ifdef FOLLOW
+    /* Nothing queues behind an F: the steering keeps its state in the queue (follow.c). */
+    if (follow_next != FOLLOW_IDLE) return E_BUSY;
+#endif
     if (next == QUEUE_SLOTS) next = 0;      /* QUEUE_NEXT, in 8 bits */
     if (next == q_tail) {
         return E_QUEUEFULL;
@@ -530,3 +537,27 @@ uint8_t planner_dwell(uint16_t ms)
     plan.steps = ms;
     return plan_wait();
 }
+
+#ifdef FOLLOW
+/* F: the heading, the lost distance, the distance and the home gate at
+ * plan_arg[0..3] (the protocol checked them), the feed at PLAN_FEED (0:
+ * the ramp's start rate, which is also the most: follow.h).  The segment
+ * carries them to follow_service, which starts the steering. */
+uint8_t planner_follow(void)
+{
+    uint8_t n;
+    plan.kind = SEG_FOLLOW;
+    plan.dirs = (uint8_t)plan_arg[0];
+    plan.a = (int16_t)plan_arg[1];
+    plan.c = (int16_t)plan_arg[2];
+    plan.b = (int16_t)plan_arg[3];
+    plan.steps = 1;                     /* never counted down: follow_next ends it */
+    plan.cruise = 0;
+    plan.exit = 0;
+    plan.cruise_period = period_of(rate_within(plan_arg[PLAN_FEED] ? plan_arg[PLAN_FEED] : RAMP_R0, RAMP_R0));
+    plan.exit_brake = 0;
+    n = commit();
+    if (n == E_OK) follow_next = FOLLOW_QUEUED;
+    return n;
+}
+#endif

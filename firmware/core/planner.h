@@ -60,6 +60,9 @@ uint8_t planner_line(void);
 uint8_t planner_z(void);    /* dz at plan_arg[0], alone: Z moves, X and Y stay */
 #endif
 uint8_t planner_arc(uint8_t clockwise);
+#ifdef FOLLOW
+uint8_t planner_follow(void);   /* F: heading, lost, distance, gate at plan_arg[0..3], feed at PLAN_FEED */
+#endif
 uint8_t planner_pen(uint8_t down);
 uint8_t planner_dwell(uint16_t ms);
 void planner_flush(void);

@@ -19,6 +19,9 @@
 #include "serial.h"
 #include "ramp.h"
 #include "panel.h"
+#ifdef FOLLOW
+#include "follow.h"
+#endif
 
 #define STR(x) #x
 #define XSTR(x) STR(x)
@@ -293,6 +296,15 @@ static void report_status(void)
     put_u16(v);
     put_tag('A');
     put_u8(alarm_code);
+#ifdef FOLLOW
+    put_tag('B');
+    put_u8(HAL_SENSORS());
+    put_tag('F');
+    put_u8(follow_state);
+    put_tag('W');
+    num = follow_travelled();
+    put_num();
+#endif
     out('>');
     put_eol();
 }
@@ -313,6 +325,9 @@ void protocol_alarm(uint8_t code)
     alarm_code = code;
     stepper_abort();
     planner_flush();
+#ifdef FOLLOW
+    follow_abort();
+#endif
     st_hold = 0;
 #ifdef PANEL
     panel_stop();
@@ -443,9 +458,16 @@ static uint8_t cmd_setting(void)
 #endif
 #define D_COMMAND "D"
 #define D_ARGS 1,
-static const ROM char command_letters[] = "LCA" Z_COMMAND "P" D_COMMAND "H";
+#ifdef FOLLOW
+#define F_COMMAND "F"
+#define F_ARGS , 4
+#else
+#define F_COMMAND
+#define F_ARGS
+#endif
+static const ROM char command_letters[] = "LCA" Z_COMMAND "P" D_COMMAND "H" F_COMMAND;
 static const ROM uint8_t command_args[] = {
-    MOTION | 2, MOTION | 4, MOTION | 4, Z_ARGS 1, D_ARGS 0
+    MOTION | 2, MOTION | 4, MOTION | 4, Z_ARGS 1, D_ARGS 0 F_ARGS
 };
 
 /* The command in cur..end, as command number plan_seq. */
@@ -476,6 +498,9 @@ static uint8_t run_command(void)
         coords = k;
         span = 2;                         /* feed and exit */
     }
+#ifdef FOLLOW
+    if (cmd == 'F') span = 1;             /* the feed */
+#endif
     if ((uint8_t)(nargs - k) > span) return E_ARGS;
     a = arg_mag;
     for (k = coords; k; k--, a++, arg_neg >>= 1) {
@@ -492,6 +517,15 @@ static uint8_t run_command(void)
     if (alarm_code) return E_ALARM;
 #ifdef PANEL
     if (PANEL_BUSY()) return E_BUSY;      /* the panel is drawing a figure */
+#endif
+#ifdef FOLLOW
+    if (cmd == 'F') {
+        /* From rest only: the steering starts from the pen standing on the line. */
+        if (arg_mag[0] >= FOLLOW_DIRS || !arg_mag[1] || arg_mag[3] > 16383) return E_RANGE;
+        if (nargs == 4) arg_mag[PLAN_FEED] = 0;
+        if (planner_busy()) return E_BUSY;
+        return planner_follow();
+    }
 #endif
     if (coords) {
         /* feed and exit, after the coordinates (a), byte by byte to
@@ -666,4 +700,7 @@ void protocol_poll(void)
     if (!st_running && !HOLDING && !alarm_code && queue_used()) {
         stepper_start();
     }
+#ifdef FOLLOW
+    follow_service(HAL_SENSORS());
+#endif
 }

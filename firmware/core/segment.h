@@ -12,6 +12,7 @@
 #define SEG_ARC_CCW 3
 #define SEG_PEN     4   /* set or clear the pen bit, then dwell `steps` ms */
 #define SEG_DWELL   5   /* wait `steps` ms */
+#define SEG_FOLLOW  6   /* build option FOLLOW: steps the main loop decides by the sensors (follow.h) */
 
 /* Arc moves, one-hot. */
 #define MV_XP 0x01

@@ -41,6 +41,9 @@
 #include "serial.h"
 #include "planner.h"
 #include "ramp.h"
+#ifdef FOLLOW
+#include "follow.h"
+#endif
 
 /* ST_STATE: the interrupt's own state, static unless the HAL brings the
  * interrupt itself (HAL_STEPPER_ISR_EXTERNAL), which then shares it. */
@@ -330,6 +333,15 @@ INLINE uint8_t load_segment(void)
 #else
         st_port = (st_port & ~(BIT_X_DIR | BIT_Y_DIR)) | st_seg.dirs;
 #endif
+#ifdef FOLLOW
+    } else if (st_seg.kind == SEG_FOLLOW) {
+        /* At the ramp's start rate, the whole way: the sensors may stop
+         * it at any step, and from that rate a stop needs no braking. */
+        st_level = RAMP_START(st_level);
+        st_below = 0;
+        st_level_left = HOLD_STEPS(st_level);
+        follow_next = FOLLOW_BEGIN;
+#endif
     } else if (st_seg.kind >= SEG_PEN) {
         if (st_seg.kind == SEG_PEN) {
             st_port = (st_port & ~BIT_PEN) | st_seg.dirs;
@@ -578,6 +590,36 @@ not_line:
         st_seg.steps--;
         goto done;
     }
+#ifdef FOLLOW
+    if (st_seg.kind == SEG_FOLLOW) {
+        /* The main loop's answer (follow_service): a step, a stop, or
+         * none yet, when this period passes without a pulse. */
+        st_period = st_seg.cruise_period;
+        st_pulse_x = 0;
+        st_pulse_y = 0;
+        mv = follow_next;
+        if (mv >= FOLLOW_IDLE) {
+            return;
+        }
+        follow_next = FOLLOW_WAIT;
+        if (mv & 0x80) {
+            follow_next = FOLLOW_IDLE;
+            st_seg.steps = 0;
+            goto done;
+        }
+        if (mv < FOLLOW_STEP_YP) {
+            st_pulse_x = 1;
+            st_port &= (uint8_t)~BIT_X_DIR;
+            if (mv == FOLLOW_STEP_XN) st_port |= BIT_X_DIR;
+        } else {
+            st_pulse_y = 1;
+            st_port &= (uint8_t)~BIT_Y_DIR;
+            if (mv == FOLLOW_STEP_YN) st_port |= BIT_Y_DIR;
+        }
+        HAL_PORT_OUT(st_port);       /* direction set a whole period before its pulse */
+        return;
+    }
+#endif
     /* Arc.  F = x^2 + y^2 - R^2 changes by 2c+1 when a coordinate c becomes
      * c+1, by -2c+1 when it becomes c-1 (point-by-point comparison and
      * comparison-integration; the DDA has no F). */

@@ -18,6 +18,7 @@ uint8_t host_port;
 uint8_t host_port2;
 uint8_t host_key = 0xFF, host_limits, host_estop;
 uint8_t host_seg[8];
+uint8_t host_sensors;
 
 /* An HD44780 as far as the firmware uses it: set-address commands and data
  * bytes into two 16-character lines (other commands: clear on 0x01). */
@@ -82,6 +83,11 @@ void core_reset(void)
     setting[SET_SHAPE] = RAMP_TRAPEZOID;
     setting[SET_FEED] = 2000;
     setting[SET_PEN] = 150;
+#ifdef FOLLOW
+    follow_next = FOLLOW_IDLE;
+    follow_state = FOLLOW_STATE_NONE;
+#endif
+    host_sensors = 0;
     stepper_init();
 #ifdef PANEL
     host_key = 0xFF;
@@ -244,14 +250,24 @@ int32_t core_run_steps(int32_t *out, int32_t cap)
 
 /* Line following, driven by the caller's virtual sheet: core_follow_tick
  * takes the sensor bits of one step period and answers as follow_tick. */
-void core_follow_start(int heading, int lost_steps, uint32_t max_steps, int home_steps)
+void core_follow_start(int heading, int lost_steps, int max_steps, int home_steps)
 {
     follow_args_t a;
     a.heading = (uint8_t)heading;
     a.lost_steps = (uint16_t)lost_steps;
-    a.max_steps = max_steps;
+    a.max_steps = (uint16_t)max_steps;
     a.home_steps = (uint16_t)home_steps;
     follow_start(&a);
 }
 
 int core_follow_tick(int black) { return follow_tick((uint8_t)black); }
+
+#ifdef FOLLOW
+/* The FOLLOW image's sensors, and its main loop's part in an F: the mock
+ * board sets the sensors where its pen is and answers the step interrupt's
+ * next step before each tick, as the chip's main loop does between them. */
+void core_set_sensors(int black) { host_sensors = (uint8_t)(black & FOLLOW_SENSOR_MASK); }
+void core_follow_service(void) { follow_service(host_sensors); }
+int core_follow_state(void) { return follow_state; }
+int core_following(void) { return follow_next != FOLLOW_IDLE; }
+#endif

@@ -63,6 +63,8 @@ class FirmwareCore:
             lib.core_pos_z.restype = ctypes.c_int32
         # The board's image has the front panel; the option builds do not.
         self.has_panel = hasattr(lib, "core_panel_tick")
+        # The build with line following (FOLLOW=1) has the sensors and the command F.
+        self.has_follow = hasattr(lib, "core_follow_service")
         lib.core_period.restype = ctypes.c_uint
         lib.core_tx_read.restype = ctypes.c_uint32
         lib.core_seq_log.restype = ctypes.c_uint32
@@ -138,12 +140,21 @@ class FirmwareCore:
         """Start following: heading in notches of 15 degrees (0: +X), the
         stops' distances in steps (max_steps 0: no limit)."""
         self._lib.core_follow_start(ctypes.c_int(heading), ctypes.c_int(lost_steps),
-                                    ctypes.c_uint32(max_steps), ctypes.c_int(home_steps))
+                                    ctypes.c_int(max_steps), ctypes.c_int(home_steps))
 
     def follow_tick(self, black: int) -> int:
         """One step period with these sensor bits (bit i: sensor i on black):
         the step to make (0 +X, 1 -X, 2 +Y, 3 -Y) or a stop (0x80 and up)."""
         return int(self._lib.core_follow_tick(ctypes.c_int(black)))
+
+    def set_sensors(self, black: int) -> None:
+        """The FOLLOW build's three sensors: bit i set when sensor i reads black."""
+        self._lib.core_set_sensors(ctypes.c_int(black))
+
+    def follow_service(self) -> None:
+        """The FOLLOW build's main loop, its part in a running F: decide the
+        step the next step interrupt takes, from the sensors as they are now."""
+        self._lib.core_follow_service()
 
     # --- state --------------------------------------------------------
     @property

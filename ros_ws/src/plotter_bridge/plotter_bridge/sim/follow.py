@@ -66,7 +66,7 @@ def follow(core: FirmwareCore, sheet: Sheet, ring: SensorRing, args: FollowArgs,
         raise FollowError("lost distance must be at least one step")
     home_mm = sheet.width_mm / 2 if args.home_mm is None else args.home_mm
     home = _steps(home_mm, steps_per_mm, "home gate", 0xFFFF)
-    most = _steps(args.max_mm, steps_per_mm, "distance", 0xFFFFFFFF)
+    most = _steps(args.max_mm, steps_per_mm, "distance", 0xFFFF)
     core.follow_start(args.heading_notch(), lost, most, home)
     x, y = round(args.start_mm[0] * steps_per_mm), round(args.start_mm[1] * steps_per_mm)
     run = FollowRun("cap", [(x, y)])
