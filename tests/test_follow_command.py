@@ -51,16 +51,21 @@ def status(core: FirmwareCore) -> dict:
 
 
 def run(core: FirmwareCore, sheet: Sheet, start: tuple, until=None):
-    """Step the board until it stops (or until(ticks) is true); the pen in mm at each step."""
-    trace = [start]
-    ticks = 0
-    while core.timer_running() and ticks < CAP and not (until and until(ticks)):
+    """Step the board until it stops (or until(ticks) is true); the pen in mm at each step.
+    The sensors follow the pen at every step, whenever the main loop reads them."""
+    def sense():
         x, y = core.position
         core.set_sensors(sheet.sensor_bits(start[0] + x / SPM, start[1] + y / SPM, RING))
+
+    trace = [start]
+    ticks = 0
+    sense()
+    while core.timer_running() and ticks < CAP and not (until and until(ticks)):
         core.follow_service()
         if core.tick():
             x, y = core.position
             trace.append((start[0] + x / SPM, start[1] + y / SPM))
+            sense()
         ticks += 1
         if ticks % 64 == 0:
             core.poll()
@@ -163,3 +168,29 @@ def test_nothing_queues_behind_an_f_and_f_waits_for_rest(core):
     assert "E10" in send(core, "P 1")
     run(core, sheet, line.start, until=lambda t: t > 100)
     assert "E10" in send(core, "F 6 400 0 280")
+
+
+def test_a_hold_pauses_the_follow_and_resume_goes_on_the_same_way(core):
+    line = circle(100.0, 100.0, 12.0)
+    sheet = Sheet([line.points], WIDTH)
+    send(core, "F 6 400 0 280")
+    straight = run(core, sheet, line.start)
+    core.reset()
+    core.transmitted()
+    send(core, "F 6 400 0 280")
+    first = run(core, sheet, line.start, until=lambda t: t > 2000)
+    core.receive(b"!!")
+    core.poll()
+    held = run(core, sheet, line.start)            # runs until the timer stops: the hold
+    assert status(core)["state"] == "Hold"
+    assert len(first) + len(held) - 2 < 2100        # stopped at once: the feed is the start rate
+    x, y = core.position
+    for _ in range(100):                            # nothing moves while held
+        core.follow_service()
+        core.poll()
+    assert core.position == (x, y) and not core.timer_running()
+    core.receive(b"~~")
+    core.poll()
+    rest = run(core, sheet, line.start)
+    assert status(core)["follow"] == 2
+    assert first + held[1:] + rest[1:] == straight

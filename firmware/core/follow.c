@@ -29,7 +29,6 @@ static const ROM uint8_t line_dir[8] = { NONE, 6, 14, 10, 22, 2, 18, NONE };
  * of its slot before follow_service starts the steering.  The chip's 256
  * bytes of XRAM hold nothing else it could use. */
 typedef struct {
-    follow_args_t args;
     uint8_t heading;      /* where the pen is going: the line's direction as far as it is known */
     uint8_t dir;          /* the direction of this step */
     uint8_t armed;        /* the pen has been far enough from the start to come back to it */
@@ -48,34 +47,38 @@ typedef struct {
 #include "planner.h"
 typedef char steer_fits_in_queue[sizeof(steer_t) <= sizeof(queue) ? 1 : -1];
 #define S (*(XDATA steer_t *)queue)
-static XDATA uint32_t f_travelled;
 #else
 static steer_t S;
-static uint32_t f_travelled;
 #endif
+static XDATA uint32_t f_travelled;
+XDATA follow_args_t follow_args;
 
-void follow_start(const follow_args_t *args)
+void follow_start(void)
 {
     uint8_t n = sizeof(steer_t);
     XDATA uint8_t *p = (XDATA uint8_t *)&S;
     do {
         *p++ = 0;
     } while (--n);
-    S.args = *args;
-    S.heading = S.dir = args->heading;
+    S.heading = S.dir = follow_args.heading;
     f_travelled = 0;
 }
 
-static int16_t abs16(int16_t v) { return v < 0 ? -v : v; }
+/* A macro, not a function: the functions that use it stay leaves, whose
+ * locals SDCC overlays instead of giving them direct RAM of their own. */
+#define ABS16(v) ((v) < 0 ? -(v) : (v))
 
 /* After a step: every FOLLOW_PROGRESS_STEPS steps the pen must have got at
  * least a quarter as far on, or it is going back and forth where the line
  * ends or breaks off and the line counts as lost. */
 static void check_progress(void)
 {
+    int16_t x, y;
     if ((uint16_t)f_travelled & (FOLLOW_PROGRESS_STEPS - 1))
         return;
-    if ((uint16_t)(abs16(S.dx - S.cx) + abs16(S.dy - S.cy)) < FOLLOW_PROGRESS_STEPS / 4)
+    x = S.dx - S.cx;
+    y = S.dy - S.cy;
+    if ((uint16_t)(ABS16(x) + ABS16(y)) < FOLLOW_PROGRESS_STEPS / 4)
         S.stop = FOLLOW_LOST;
     S.cx = S.dx;
     S.cy = S.dy;
@@ -88,14 +91,17 @@ static void check_progress(void)
 static void check_home(void)
 {
     uint8_t behind = S.along < 0;
-    if (abs16(S.dx) == 32767 || abs16(S.dy) == 32767) {
+    uint16_t x = (uint16_t)ABS16(S.dx), y = (uint16_t)ABS16(S.dy);
+    int32_t gate;
+    if (x == 32767 || y == 32767) {
         S.stop = FOLLOW_LOST;
     } else if (!S.armed) {
-        if ((uint16_t)abs16(S.dx) > (uint16_t)(S.args.home_steps << 1) ||
-            (uint16_t)abs16(S.dy) > (uint16_t)(S.args.home_steps << 1))
+        gate = follow_args.home_steps << 1;
+        if (x > (uint16_t)gate || y > (uint16_t)gate)
             S.armed = 1;
     } else if (!behind && S.behind) {
-        if ((uint32_t)(S.across < 0 ? -S.across : S.across) <= ((uint32_t)S.args.home_steps << 6))
+        gate = (int32_t)follow_args.home_steps << 6;
+        if (S.across <= gate && S.across >= -gate)
             S.stop = FOLLOW_HOME;
     }
     S.behind = behind;
@@ -116,15 +122,15 @@ uint8_t follow_tick(uint8_t black)
     uint8_t target = S.heading;
     uint8_t line;
     int8_t diff = 0;
-    int8_t c, s;
+    int8_t c, s, ac, as, da, dc, d;
 
     if (S.stop)
         return S.stop;
-    if (S.args.max_steps && f_travelled >= S.args.max_steps)
+    if (follow_args.max_steps && f_travelled >= follow_args.max_steps)
         return S.stop = FOLLOW_DISTANCE;
     black &= FOLLOW_SENSOR_MASK;
     if (!black) {
-        if (++S.lost >= S.args.lost_steps)
+        if (++S.lost >= follow_args.lost_steps)
             return S.stop = FOLLOW_LOST;
     } else {
         S.lost = 0;
@@ -155,45 +161,44 @@ uint8_t follow_tick(uint8_t black)
 
     c = COS(target);
     s = SIN(target);
+    ac = c < 0 ? -c : c;
+    as = s < 0 ? -s : s;
     if (target != S.dir) {
         /* A new direction starts on its major axis: steering that swaps
          * between two directions every step then still moves along both. */
         S.dir = target;
-        S.judge = (c < 0 ? -c : c) >= (s < 0 ? -s : s) ? 0 : -1;
+        S.judge = ac >= as ? 0 : -1;
     }
-    /* The start heading's cosine and sine (c0, s0): a step along X moves
-     * the pen c0 along it and -s0 across it, a step along Y s0 and c0. */
+    /* The step, and what it moves the pen along the start heading and
+     * across it (x 64): with that heading's cosine and sine c0, s0, a step
+     * along +X c0 and -s0, along +Y s0 and c0. */
+    da = COS(follow_args.heading);
+    dc = SIN(follow_args.heading);
     if (s == 0 || (c != 0 && S.judge >= 0)) {
-        S.judge -= s < 0 ? -s : s;
+        S.judge -= as;
         line = FOLLOW_STEP_XP;
-        s = SIN(S.args.heading);
-        c = COS(S.args.heading);
-        if (COS(target) < 0) {
-            line = FOLLOW_STEP_XN;
-            S.dx--;
-            s = -s;
-            c = -c;
-        } else {
-            S.dx++;
-        }
-        S.along += c;
-        S.across -= s;
+        dc = -dc;
     } else {
-        S.judge += c < 0 ? -c : c;
+        S.judge += ac;
         line = FOLLOW_STEP_YP;
-        c = COS(S.args.heading);
-        s = SIN(S.args.heading);
-        if (SIN(target) < 0) {
-            line = FOLLOW_STEP_YN;
-            S.dy--;
-            s = -s;
-            c = -c;
-        } else {
-            S.dy++;
-        }
-        S.along += s;
-        S.across += c;
+        c = da;                  /* (c0, s0) turned a right angle: (s0, c0) after the sign above */
+        da = dc;
+        dc = c;
+        c = s;
     }
+    d = 1;
+    if (c < 0) {
+        line++;                  /* FOLLOW_STEP_XN, FOLLOW_STEP_YN */
+        d = -1;
+        da = -da;
+        dc = -dc;
+    }
+    if (line < FOLLOW_STEP_YP)
+        S.dx += d;
+    else
+        S.dy += d;
+    S.along += da;
+    S.across += dc;
     f_travelled++;
     check_progress();
     check_home();
@@ -210,23 +215,24 @@ uint32_t follow_travelled(void)
 }
 
 /* The F's arguments sit in its segment (planner_follow): a = lost steps,
- * b = the home gate, c = the distance (0: none), dirs = the heading. */
-void follow_service(uint8_t black)
+ * b = the home gate, c = the distance (0: none), dirs = the heading.  The
+ * sensors are read only once the interrupt has taken the last step: read
+ * before, they could be a main-loop pass older than that step. */
+void follow_service(void)
 {
     uint8_t next = follow_next;
     if (next == FOLLOW_BEGIN) {
-        static XDATA follow_args_t a;
-        a.heading = st_seg.dirs;
-        a.lost_steps = (uint16_t)st_seg.a;
-        a.home_steps = (uint16_t)st_seg.b;
-        a.max_steps = (uint16_t)st_seg.c;
-        follow_start(&a);
+        follow_args.heading = st_seg.dirs;
+        follow_args.lost_steps = (uint16_t)st_seg.a;
+        follow_args.home_steps = (uint16_t)st_seg.b;
+        follow_args.max_steps = (uint16_t)st_seg.c;
+        follow_start();
         follow_state = FOLLOW_STATE_RUNNING;
         next = FOLLOW_WAIT;
     }
     if (next != FOLLOW_WAIT)
         return;
-    next = follow_tick(black);
+    next = follow_tick(HAL_SENSORS());
     if (next & 0x80)
         follow_state = (uint8_t)(next - FOLLOW_HOME + FOLLOW_STATE_HOME);
     follow_next = next;

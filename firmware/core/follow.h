@@ -50,7 +50,8 @@ typedef struct {
                                  before crossing the gate counts as home */
 } follow_args_t;
 
-void follow_start(const follow_args_t *args);
+extern XDATA follow_args_t follow_args;   /* the next follow_start's arguments */
+void follow_start(void);
 uint8_t follow_tick(uint8_t black);
 
 #ifdef FOLLOW
@@ -72,7 +73,7 @@ extern volatile XDATA uint8_t follow_next;
 extern volatile XDATA uint8_t follow_state;
 
 uint32_t follow_travelled(void);     /* steps followed by the current or last F */
-void follow_service(uint8_t black);  /* main loop: answer the interrupt's next step */
+void follow_service(void);           /* main loop: answer the interrupt's next step by the sensors */
 void follow_abort(void);             /* the F, if one runs, ended by a reset or an alarm */
 #endif
 

@@ -701,6 +701,6 @@ void protocol_poll(void)
         stepper_start();
     }
 #ifdef FOLLOW
-    follow_service(HAL_SENSORS());
+    follow_service();
 #endif
 }

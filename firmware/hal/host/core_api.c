@@ -252,12 +252,11 @@ int32_t core_run_steps(int32_t *out, int32_t cap)
  * takes the sensor bits of one step period and answers as follow_tick. */
 void core_follow_start(int heading, int lost_steps, int max_steps, int home_steps)
 {
-    follow_args_t a;
-    a.heading = (uint8_t)heading;
-    a.lost_steps = (uint16_t)lost_steps;
-    a.max_steps = (uint16_t)max_steps;
-    a.home_steps = (uint16_t)home_steps;
-    follow_start(&a);
+    follow_args.heading = (uint8_t)heading;
+    follow_args.lost_steps = (uint16_t)lost_steps;
+    follow_args.max_steps = (uint16_t)max_steps;
+    follow_args.home_steps = (uint16_t)home_steps;
+    follow_start();
 }
 
 int core_follow_tick(int black) { return follow_tick((uint8_t)black); }
@@ -267,7 +266,6 @@ int core_follow_tick(int black) { return follow_tick((uint8_t)black); }
  * board sets the sensors where its pen is and answers the step interrupt's
  * next step before each tick, as the chip's main loop does between them. */
 void core_set_sensors(int black) { host_sensors = (uint8_t)(black & FOLLOW_SENSOR_MASK); }
-void core_follow_service(void) { follow_service(host_sensors); }
-int core_follow_state(void) { return follow_state; }
-int core_following(void) { return follow_next != FOLLOW_IDLE; }
+void core_follow_service(void) { follow_service(); }
+int core_follow_mailbox(void) { return follow_next; }
 #endif

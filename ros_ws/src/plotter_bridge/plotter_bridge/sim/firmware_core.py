@@ -156,6 +156,13 @@ class FirmwareCore:
         step the next step interrupt takes, from the sensors as they are now."""
         self._lib.core_follow_service()
 
+    @property
+    def follow_mailbox(self) -> int:
+        """The FOLLOW build's mailbox (core/follow.h follow_next): a decided
+        step or stop the step interrupt has still to take, or FOLLOW_IDLE,
+        FOLLOW_QUEUED, FOLLOW_BEGIN, FOLLOW_WAIT (0xFC..0xFF)."""
+        return int(self._lib.core_follow_mailbox())
+
     # --- state --------------------------------------------------------
     @property
     def position(self) -> tuple[int, int]:
