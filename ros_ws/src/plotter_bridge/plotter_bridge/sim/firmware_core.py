@@ -18,22 +18,27 @@ CYCLES_PER_S = 921_600  # STC89C52RC: 11.0592 MHz / 12
 LIB_NAME = "libplotter_core.so"
 
 
-def find_library(z_axis: bool = False) -> Path:
+def find_library(z_axis: bool = False, follow: bool = False) -> Path:
     """Locate libplotter_core.so: $PLOTTER_CORE_LIB, else firmware/build above
     this file or cwd; with z_axis the build with a Z axis ($PLOTTER_CORE_LIB_Z,
-    firmware/build/z)."""
-    env = os.environ.get("PLOTTER_CORE_LIB_Z" if z_axis else "PLOTTER_CORE_LIB")
+    firmware/build/z), with follow the build with line following
+    ($PLOTTER_CORE_LIB_FOLLOW, firmware/build/follow)."""
+    if z_axis and follow:
+        raise ValueError("no build has both a Z axis and line following")
+    variant = "z" if z_axis else "follow" if follow else ""
+    env = os.environ.get("PLOTTER_CORE_LIB" + (f"_{variant.upper()}" if variant else ""))
     if env:
         return Path(env)
-    build = Path("firmware", "build", "z") if z_axis else Path("firmware", "build")
+    build = Path("firmware", "build", variant) if variant else Path("firmware", "build")
     for start in (Path(__file__).resolve(), Path.cwd().resolve()):
         for parent in (start, *start.parents):
             candidate = parent / build / LIB_NAME
             if candidate.exists():
                 return candidate
-    if z_axis:
-        raise FileNotFoundError(f"{build / LIB_NAME} not found: run `make -C firmware ZAXIS=1` "
-                                f"or set PLOTTER_CORE_LIB_Z")
+    if variant:
+        option = "ZAXIS=1" if z_axis else "FOLLOW=1"
+        raise FileNotFoundError(f"{build / LIB_NAME} not found: run `make -C firmware {option}` "
+                                f"or set PLOTTER_CORE_LIB_{variant.upper()}")
     raise FileNotFoundError(
         f"{LIB_NAME} not found: run `make -C firmware` or set PLOTTER_CORE_LIB")
 

@@ -20,6 +20,11 @@ while, the core running on meanwhile; `power_cycle()` resets the core
 (banner, position 0, queue empty).  Both also fire after a number of steps
 (`unplug_at`, `reset_at`).
 
+With a sheet (line following, the core built with FOLLOW=1) the three
+sensors read the sheet where the carriage is at every step, and the main
+loop decides each step of an `F` just before the step interrupt, as the
+chip's does within a step period at the follow's feeds.
+
 No ROS here: nodes/mock_board.py wraps it as a node, `plotter --mock` runs
 it in a thread.
 """
@@ -41,6 +46,7 @@ from plotter_bridge.link.protocol import DEFAULT_BAUD
 from plotter_bridge.motion.kinematics import Machine
 from plotter_bridge.motion.planner import BOARD_CPU
 from .main_loop_cpu import LineCharge, share_left
+from .sheet import SensorRing, Sheet
 from .uart import PacedLine
 
 TX_SIZE = 16          # firmware core/config.h: the transmit ring
@@ -69,12 +75,24 @@ class MockBoardConfig:
     # the CPU its steps leave, so that short commands come no faster than the chip parses them; False:
     # a board that parses and plans in no time.
     cpu: bool = True
+    # Line following (the core built with FOLLOW=1, XY table only): black lines under the pen, the pen
+    # at sheet_start_mm on the sheet where the board was powered on, and the sensors round it.
+    sheet: Optional[Sheet] = None
+    sheet_start_mm: Tuple[float, float] = (0.0, 0.0)
+    sensors: SensorRing = SensorRing(3.0)
 
 
 class MockBoard:
     def __init__(self, config: MockBoardConfig, core: Optional[FirmwareCore] = None) -> None:
         self.config = config
-        self.core = core or FirmwareCore(find_library(z_axis=config.machine.z_axis))
+        if config.sheet is not None:
+            if config.machine.kind != "cartesian":
+                raise ValueError(f"line following runs on the XY table only, not the {config.machine.kind} "
+                                 f"machine: its sensors' directions are the motors' axes")
+            config.sheet.check_ring(config.sensors)
+        self.core = core or FirmwareCore(find_library(z_axis=config.machine.z_axis, follow=config.sheet is not None))
+        if config.sheet is not None and not self.core.has_follow:
+            raise ValueError(f"a sheet needs the core built with FOLLOW=1, not {self.core.library}")
         self._carriage = (0, 0)        # motor steps from the power-on place, counted from the pulses
         self._seen = self.core.position
         self._master = self._slave = -1
@@ -352,16 +370,24 @@ class MockBoard:
             self._trace_flushed_at = now
 
     def _switches(self, stepped: bool = True) -> None:
-        """The limit switches where the carriage is, before the next pulse.  The carriage's place is
-        counted from the pulses (`stepped`), not read from the board's position, which an `H` moves."""
-        if self.config.switches is None:
+        """The inputs where the carriage is, before the next pulse: the limit switches, and the line
+        sensors over the sheet.  The carriage's place is counted from the pulses (`stepped`), not read
+        from the board's position, which an `H` moves."""
+        config = self.config
+        if config.switches is None and config.sheet is None:
             return
         x, y = self.core.position
         if stepped:
             self._carriage = (self._carriage[0] + x - self._seen[0], self._carriage[1] + y - self._seen[1])
         self._seen = (x, y)
-        sx, sy = self.config.switches
-        self.core.set_switches(self._carriage[0] <= sx, self._carriage[1] <= sy)
+        if config.switches is not None:
+            sx, sy = config.switches
+            self.core.set_switches(self._carriage[0] <= sx, self._carriage[1] <= sy)
+        if config.sheet is not None:
+            spm = config.machine.steps_per_mm
+            x0, y0 = config.sheet_start_mm
+            pen = (x0 + self._carriage[0] / spm, y0 + self._carriage[1] / spm)
+            self.core.set_sensors(config.sheet.sensor_bits(*pen, config.sensors))
 
     def _run_steps(self, now: float) -> None:
         core = self.core
@@ -383,6 +409,10 @@ class MockBoard:
                 serial_due = self._serial_due(due)
             self.board_time = due
             budget -= 1
+            if self.config.sheet is not None:
+                # The chip's main loop decides each step of a follow within a step period at the
+                # follow's feeds (tests/test_firmware_follow.py): here, just before the interrupt.
+                core.follow_service()
             if core.tick():
                 self.steps += 1
                 self._switches()
