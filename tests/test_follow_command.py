@@ -16,6 +16,7 @@ import pytest
 
 from firmware_build import host_library
 from follow_lines import LINES, circle, distances, path_length, sine_wave
+from plotter_bridge.link.protocol import parse_reply
 from plotter_bridge.sim.firmware_core import FirmwareCore
 from plotter_bridge.sim.sheet import SensorRing, Sheet
 
@@ -123,6 +124,11 @@ def test_the_distance_stop_and_the_sensor_bits(core):
     run(core, sheet, line.start)
     s = status(core)
     assert (s["follow"], s["walked"]) == (4, 800)
+    # The host's reader of the board's replies takes the follow's fields too.
+    core.receive(b"?")
+    core.poll()
+    reply = parse_reply(core.transmitted().decode().strip())
+    assert (reply.follow, reply.followed, reply.sensors) == (4, 800, s["bits"])
     core.set_sensors(0b101)
     assert status(core)["bits"] == 5
 

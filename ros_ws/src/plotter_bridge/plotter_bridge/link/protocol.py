@@ -129,6 +129,11 @@ class Status:
     underruns: int
     alarm: int
     z: Optional[int] = None  # Z axis position in steps; None from a board without one (ZAXIS=0)
+    # Line following (FOLLOW=1; None from a board without it): the sensors on black (bit i: sensor i),
+    # the follow's state (link/follow.py FOLLOW_STATES) and the steps it followed.
+    sensors: Optional[int] = None
+    follow: Optional[int] = None
+    followed: Optional[int] = None
 
 
 @dataclass(frozen=True)
@@ -148,7 +153,8 @@ _OK = re.compile(r"ok(?: N(\d+))? Q(\d+)$")
 _ERR = re.compile(r"err(?: N(\d+))? E(\d+)(?: (.*))?$")
 _RS = re.compile(r"rs N(\d+) E(\d+)$")
 _STATUS = re.compile(
-    r"<(Idle|Run|Hold|Alarm) X(-?\d+) Y(-?\d+)(?: Z(-?\d+))? Q(\d+) N(\d+) S(\d+) P([01]) U(\d+) A(\d+)>$")
+    r"<(Idle|Run|Hold|Alarm) X(-?\d+) Y(-?\d+)(?: Z(-?\d+))? Q(\d+) N(\d+) S(\d+) P([01]) U(\d+) A(\d+)"
+    r"(?: B([0-7]) F(\d) W(\d+))?>$")
 
 
 def verify_reply(line: str) -> Optional[str]:
@@ -173,8 +179,9 @@ def parse_reply(raw: str) -> Optional[Reply]:
     m = _STATUS.match(line)
     if m:
         g = m.groups()
+        follow = (None, None, None) if g[10] is None else (int(g[10]), int(g[11]), int(g[12]))
         return Status(g[0], int(g[1]), int(g[2]), int(g[4]), int(g[5]), int(g[6]),
-                      g[7] == "1", int(g[8]), int(g[9]), None if g[3] is None else int(g[3]))
+                      g[7] == "1", int(g[8]), int(g[9]), None if g[3] is None else int(g[3]), *follow)
     m = _RS.match(line)
     if m:
         return Resend(int(m.group(1)), int(m.group(2)))

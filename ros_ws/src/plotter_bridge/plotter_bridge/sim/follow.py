@@ -7,20 +7,18 @@ the trace in steps from the machine origin.
 """
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass, field
 from typing import List, Optional, Tuple
+
+from plotter_bridge.link.follow import MAX_GATE, MAX_STEPS, FollowError, heading_notch, mm_to_steps
 
 from .firmware_core import FirmwareCore
 from .sheet import Sheet, SensorRing
 
-DIRS = 24                      # core/follow.h FOLLOW_DIRS: headings 15 degrees apart
+__all__ = ["FollowArgs", "FollowError", "FollowRun", "follow"]
+
 STEPS = {0: (1, 0), 1: (-1, 0), 2: (0, 1), 3: (0, -1)}
 STOPS = {0x80: "home", 0x81: "lost", 0x82: "distance"}
-
-
-class FollowError(ValueError):
-    """A follow command with arguments the firmware would refuse."""
 
 
 @dataclass(frozen=True)
@@ -32,7 +30,7 @@ class FollowArgs:
     home_mm: Optional[float] = None     # the start gate's half width (default: half the line's width)
 
     def heading_notch(self) -> int:
-        return round(self.heading_deg / (360.0 / DIRS)) % DIRS
+        return heading_notch(self.heading_deg)
 
 
 @dataclass
@@ -49,11 +47,10 @@ class FollowRun:
 
 
 def _steps(mm: float, steps_per_mm: float, what: str, limit: int) -> int:
-    if not (math.isfinite(mm) and mm >= 0):
-        raise FollowError(f"{what} must be a distance in mm of 0 or more, not {mm}")
-    n = round(mm * steps_per_mm)
-    if n > limit:
-        raise FollowError(f"{what} {mm:g} mm is {n} steps, more than the board's {limit}")
+    problems: List[str] = []
+    n = mm_to_steps(mm, steps_per_mm, what, limit, problems)
+    if problems:
+        raise FollowError("; ".join(problems))
     return n
 
 
@@ -61,12 +58,12 @@ def follow(core: FirmwareCore, sheet: Sheet, ring: SensorRing, args: FollowArgs,
            steps_per_mm: float = 80.0, cap_steps: int = 2_000_000) -> FollowRun:
     """Follow the sheet's line from args.start_mm until the core stops."""
     sheet.check_ring(ring)
-    lost = _steps(args.lost_mm, steps_per_mm, "lost distance", 0xFFFF)
+    lost = _steps(args.lost_mm, steps_per_mm, "lost distance", MAX_STEPS)
     if lost == 0:
         raise FollowError("lost distance must be at least one step")
     home_mm = sheet.width_mm / 2 if args.home_mm is None else args.home_mm
-    home = _steps(home_mm, steps_per_mm, "home gate", 0xFFFF)
-    most = _steps(args.max_mm, steps_per_mm, "distance", 0xFFFF)
+    home = _steps(home_mm, steps_per_mm, "home gate", MAX_GATE)
+    most = _steps(args.max_mm, steps_per_mm, "distance", MAX_STEPS)
     core.follow_start(args.heading_notch(), lost, most, home)
     x, y = round(args.start_mm[0] * steps_per_mm), round(args.start_mm[1] * steps_per_mm)
     run = FollowRun("cap", [(x, y)])

@@ -1,0 +1,51 @@
+"""The host's side of line following (link/follow.py, link/protocol.py): a
+goal in mm and degrees as the board's `F`, every reason a goal is refused
+given at once, and the follow fields of a FOLLOW=1 board's status report."""
+import pytest
+
+from plotter_bridge.link.follow import FollowError, FollowGoal, follow_command, follow_state_name
+from plotter_bridge.link.protocol import Status, checksum, parse_reply
+
+
+def signed(body: str) -> str:
+    return f"{body} *{checksum(body + ' ')}"
+
+
+@pytest.mark.parametrize("goal, spm, command", [
+    (FollowGoal(), 80.0, "F 0 400 0 280"),
+    (FollowGoal(heading_deg=90.0, feed_mm_s=2.5, lost_mm=4.0, distance_mm=100.0, gate_mm=3.0), 80.0,
+     "F 6 320 8000 240 200"),
+    (FollowGoal(heading_deg=-97.0), 80.0, "F 18 400 0 280"),       # the nearest of the 24 headings
+    (FollowGoal(heading_deg=352.6, feed_mm_s=1.0), 100.0, "F 0 500 0 350 100"),
+])
+def test_a_goal_becomes_the_boards_f(goal, spm, command):
+    assert follow_command(goal, spm) == command
+
+
+def test_a_bad_goal_is_refused_with_every_reason():
+    goal = FollowGoal(heading_deg=float("nan"), feed_mm_s=5.0, lost_mm=-1.0, distance_mm=900.0, gate_mm=300.0)
+    with pytest.raises(FollowError) as err:
+        follow_command(goal, 80.0)
+    text = str(err.value)
+    for what in ("heading", "lost distance", "distance 900 mm is 72000 steps", "gate 300 mm",
+                 "feed 5 mm/s is 400 steps/s: the board follows at 15 to 250 steps/s"):
+        assert what in text
+
+
+@pytest.mark.parametrize("goal, what", [
+    (FollowGoal(lost_mm=0.001), "less than a step"),
+    (FollowGoal(feed_mm_s=0.1), "feed 0.1 mm/s is 8 steps/s"),
+    (FollowGoal(feed_mm_s=-1.0), "feed must be"),
+])
+def test_goals_the_board_cannot_run(goal, what):
+    with pytest.raises(FollowError, match=what):
+        follow_command(goal, 80.0)
+
+
+def test_the_status_of_a_follow_board_is_read_and_of_others_as_before():
+    follow = parse_reply(signed("<Idle X1200 Y-40 Q6 N0 S0 P0 U0 A0 B7 F2 W15230>"))
+    assert follow == Status("Idle", 1200, -40, 6, 0, 0, False, 0, 0, None, 7, 2, 15230)
+    assert follow_state_name(follow.follow) == "home"
+    plain = parse_reply(signed("<Run X12 Y-3 Q4 N18 S17 P1 U0 A0>"))
+    assert plain == Status("Run", 12, -3, 4, 18, 17, True, 0, 0) and plain.sensors is None
+    assert parse_reply(signed("<Idle X0 Y0 Q6 N0 S0 P0 U0 A0 B9 F2 W1>")) is None   # three sensors: 0..7
