@@ -10,8 +10,8 @@
 #     builder's include paths);
 #   - the colcon workspace ros_ws/ built into ros_ws/install/;
 #   - the `plotter` command in .venv/bin/;
-#   - the firmware (make -C firmware), and the host library of its Z axis build
-#     (ZAXIS=1), when firmware/Makefile exists.
+#   - the firmware (make -C firmware), and the host libraries of its Z axis and line-following builds
+#     (ZAXIS=1, FOLLOW=1), when firmware/Makefile exists.
 # Idempotent: each step is skipped when its inputs did not change.
 # Environment: PYTHON (default python3) is the interpreter the venv is made from.
 set -euo pipefail
@@ -164,6 +164,9 @@ if [ -f firmware/Makefile ]; then
     # The mock board of a machine with a Z axis (plotter --z-axis) runs this core.
     log "make -C firmware ZAXIS=1 build/z/libplotter_core.so"
     make -s -C firmware ZAXIS=1 build/z/libplotter_core.so
+    # The mock board with a sheet under its pen (line following) runs this one.
+    log "make -C firmware FOLLOW=1 build/follow/libplotter_core.so"
+    make -s -C firmware FOLLOW=1 build/follow/libplotter_core.so
 fi
 
 log "done: source .venv/bin/activate && source ros_ws/install/setup.bash"

@@ -49,3 +49,9 @@ def test_the_status_of_a_follow_board_is_read_and_of_others_as_before():
     plain = parse_reply(signed("<Run X12 Y-3 Q4 N18 S17 P1 U0 A0>"))
     assert plain == Status("Run", 12, -3, 4, 18, 17, True, 0, 0) and plain.sensors is None
     assert parse_reply(signed("<Idle X0 Y0 Q6 N0 S0 P0 U0 A0 B9 F2 W1>")) is None   # three sensors: 0..7
+
+
+def test_a_job_with_a_follow_has_no_end_the_session_can_foretell():
+    from plotter_bridge.link.board_session import displacement
+    assert displacement(["L 10 -5 2000 0", "A 4 0 2 0"]) == (14, -5)
+    assert displacement(["P 0", "F 6 400 0 280", "L 10 0"]) is None

@@ -104,11 +104,14 @@ class _Realtime:
     failed: bool = False
 
 
-def displacement(commands: List[str]) -> tuple:
-    """Sum of the moves (dx, dy) of board commands, in steps."""
+def displacement(commands: List[str]) -> Optional[tuple]:
+    """Sum of the moves (dx, dy) of board commands, in steps; None when a
+    line follow (F) is among them, which ends where the line takes the pen."""
     x = y = 0
     for text in commands:
         parts = text.split()
+        if parts and parts[0] == "F":
+            return None
         if parts and parts[0] in ("L", "C", "A") and len(parts) >= 3:
             x, y = x + int(parts[1]), y + int(parts[2])
     return x, y
@@ -397,9 +400,9 @@ class BoardSession:
             if self._resync:
                 self._sync(st)
             job = Job([self.link.submit(c, tag=ln) for c, ln in zip(commands, lines)])
-            if st.state == "Idle" and st.queue_free == QUEUE_SIZE:
-                dx, dy = displacement(commands)
-                job.expected_end = (st.x + dx, st.y + dy)
+            moves = displacement(commands)
+            if moves is not None and st.state == "Idle" and st.queue_free == QUEUE_SIZE:
+                job.expected_end = (st.x + moves[0], st.y + moves[1])
             self.job = job
             return job
 

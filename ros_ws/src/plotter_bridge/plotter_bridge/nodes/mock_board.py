@@ -13,6 +13,13 @@ unplug_at=4000,unplug_for=2,reset_at=9000`; see sim/faults.py).
 puts limit switches at the -X and -Y ends of an XY table: each closes at and
 beyond its position, as the board's P1.5 and P1.7 (firmware/README.md).
 
+`sheet` (a G-code file whose pen-down moves are black lines
+`sheet_line_width_mm` wide) puts a sheet under the pen of an XY table for
+line following: the board runs the core built with FOLLOW=1, the pen stands
+at `sheet_start` ("X,Y" mm on the sheet) where the board is powered on, and
+its three sensors, `sensor_radius_mm` from the pen, read the sheet at every
+step (firmware/README.md, *Line following*).
+
 Services `~/unplug` (the pty vanishes for `unplug_for` seconds and comes back
 at the same link path) and `~/power_cycle` (the board resets) simulate the
 same events on demand.
@@ -29,6 +36,7 @@ from std_srvs.srv import Trigger
 
 from plotter_bridge.sim.faults import FaultSpec, parse_faults
 from plotter_bridge.sim.mock_board import MockBoard, MockBoardConfig
+from plotter_bridge.sim.sheet import SensorRing, Sheet, SheetError
 
 from .main import DEFAULT_NAMESPACE, run_node
 from .params import BAUD, MACHINE, NodeParameters, ParamSpec, all_of, check_machine, machine_of
@@ -47,6 +55,12 @@ SPECS = (
                               "('' = none)", read_only=True),
     ParamSpec("cpu", True, "charge each line the 8051's main-loop cycles (motion/planner.py BoardCpu), so that "
                            "short commands come no faster than the chip parses them; false: no time", read_only=True),
+    ParamSpec("sheet", "", "line following: a G-code file whose pen-down moves are the black lines under the "
+                           "pen ('' = none)", read_only=True),
+    ParamSpec("sheet_line_width_mm", 7.0, "the sheet's lines' width", "mm", low=0.1, high=100.0, read_only=True),
+    ParamSpec("sheet_start", "0,0", "where on the sheet the pen stands at power-on: 'X,Y' in mm", read_only=True),
+    ParamSpec("sensor_radius_mm", 3.0, "the line sensors' distance from the pen", "mm", low=0.1, high=50.0,
+              read_only=True),
     *MACHINE,
 )
 
@@ -75,6 +89,38 @@ def check_switches(values) -> Optional[str]:
     return None
 
 
+def point_mm(name: str, text: str) -> Tuple[float, float]:
+    """'X,Y' in mm; ValueError naming the parameter and what is wrong."""
+    try:
+        x, y = (float(v) for v in text.split(","))
+    except ValueError:
+        raise ValueError(f"{name} = {text!r}: two numbers 'X,Y' in mm, e.g. '130,100'") from None
+    if not (math.isfinite(x) and math.isfinite(y)):
+        raise ValueError(f"{name} = {text!r}: finite numbers")
+    return x, y
+
+
+def check_sheet(values) -> Optional[str]:
+    try:
+        point_mm("sheet_start", str(values["sheet_start"]))
+    except ValueError as exc:
+        return str(exc)
+    if str(values["sheet"]).strip() and values["machine"] != "cartesian":
+        return "sheet: line following runs on the XY table only (machine cartesian)"
+    return None
+
+
+def load_sheet(values) -> Optional[Sheet]:
+    """The sheet of the parameters, or None; ValueError (SheetError) naming the file and what is wrong."""
+    path = str(values["sheet"]).strip()
+    if not path:
+        return None
+    try:
+        return Sheet.from_gcode(path, float(values["sheet_line_width_mm"]))
+    except OSError as exc:
+        raise SheetError(f"sheet = {path!r}: {exc.strerror or exc}") from None
+
+
 def check_faults(values) -> Optional[str]:
     try:
         parse_faults(str(values["faults"]))
@@ -86,7 +132,8 @@ def check_faults(values) -> Optional[str]:
 class MockBoardNode(Node):
     def __init__(self, *, namespace: str = DEFAULT_NAMESPACE, **kwargs) -> None:
         super().__init__("mock_board", namespace=namespace, **kwargs)
-        self.params = NodeParameters(self, SPECS, cross=all_of(check_machine, check_faults, check_switches))
+        checks = all_of(check_machine, check_faults, check_switches, check_sheet)
+        self.params = NodeParameters(self, SPECS, cross=checks)
         p = self.params
         machine = machine_of(p.values())
         switches = switches_mm(str(p["switches"]))
@@ -95,7 +142,10 @@ class MockBoardNode(Node):
                                  machine=machine, cpu=bool(p["cpu"]),
                                  switches=None if switches is None else
                                  (math.floor(switches[0] * machine.steps_per_mm),
-                                  math.floor(switches[1] * machine.steps_per_mm)))
+                                  math.floor(switches[1] * machine.steps_per_mm)),
+                                 sheet=load_sheet(p.values()),
+                                 sheet_start_mm=point_mm("sheet_start", str(p["sheet_start"])),
+                                 sensors=SensorRing(float(p["sensor_radius_mm"])))
         self.board = MockBoard(config)
         self.create_publisher(String, "mock_port", latched()).publish(String(data=self.board.port_path))
         self.create_service(Trigger, "~/unplug", self._srv_unplug)

@@ -49,6 +49,7 @@ from plotter_interfaces.srv import JobStatus
 
 from plotter_bridge.link.board_session import (CONNECTING, DISCONNECTED, QUEUE_SIZE, BoardSession, Job, JobResult,
                                                SessionConfig)
+from plotter_bridge.link.follow import follow_state_name
 from plotter_bridge.link.homing import HomingConfig, home, homing_config
 from plotter_bridge.link.protocol import Status
 from plotter_bridge.link.serial_port import open_port
@@ -252,6 +253,10 @@ class SerialBridge(Node):
         s.x_mm, s.y_mm = x_mm, y_mm
         if st.z is not None:
             s.has_z, s.z_steps, s.z_mm = True, st.z, z_mm
+        if st.sensors is not None:
+            s.has_sensors, s.sensors, s.follow_state = True, st.sensors, st.follow
+            s.follow_state_name = follow_state_name(st.follow)
+            s.followed_steps = st.followed
         s.pen_down = st.pen_down
         s.queue_free = st.queue_free
         self.pub_state.publish(s)
