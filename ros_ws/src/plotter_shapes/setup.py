@@ -26,5 +26,9 @@ setup(
         'plotter.commands': [
             'shapes = plotter_shapes.commands:COMMANDS',
         ],
+        # Sheets of lines for `plotter follow`, by file suffix: an SVG placed as `plotter svg` places it.
+        'plotter.sheets': [
+            'svg = plotter_shapes.svg_input:sheet_lines',
+        ],
     },
 )

@@ -244,3 +244,10 @@ def svg_program(path: str, placement: Placement = Placement(), feed: float = 150
                 optimize_paths: bool = False) -> List[str]:
     """G-code that draws an SVG file."""
     return drawing_program(read_svg(path), placement, PX_PER_MM, feed, path, optimize_paths)
+
+
+def sheet_lines(path: str) -> List[List[Tuple[float, float]]]:
+    """An SVG file's paths as polylines in machine mm, placed as `plotter svg` places a drawing by default
+    (its own size, centred on (100, 100)): the black lines of a sheet for `plotter follow`."""
+    placed = place(read_svg(path), Placement(), PX_PER_MM)
+    return [[(float(p.real), float(p.imag)) for p in line] for line in placed.lines]

@@ -1,9 +1,10 @@
 """The ``plotter`` command line: one table of subcommands and ``main``.
 
-``COMMANDS`` holds this package's subcommands (check.py: ``check``; run.py:
-the ones that run the node graph).  Each adds its arguments to its own
-argparse sub-parser and runs with the parsed namespace, returning the exit
-code; further subcommands are added to the table without changing ``main``.
+``COMMANDS`` holds this package's subcommands (check.py: ``check``;
+follow.py: ``follow``; run.py: the ones that run the node graph).  Each
+adds its arguments to its own argparse sub-parser and runs with the parsed
+namespace, returning the exit code; further subcommands are added to the
+table without changing ``main``.
 
 Other installed packages add theirs through the entry point group
 ``plotter.commands`` (a sequence of Command), the way ros2cli finds the verbs
@@ -17,10 +18,10 @@ import sys
 from importlib.metadata import entry_points
 from typing import Dict, Optional, Sequence, TextIO
 
-from . import check, run
+from . import check, follow, run
 from .command import EXIT_BAD_PROGRAM, Command
 
-COMMANDS: Dict[str, Command] = {c.name: c for c in (*check.COMMANDS, *run.COMMANDS)}
+COMMANDS: Dict[str, Command] = {c.name: c for c in (*check.COMMANDS, *run.COMMANDS, *follow.COMMANDS)}
 ENTRY_POINT_GROUP = "plotter.commands"
 
 

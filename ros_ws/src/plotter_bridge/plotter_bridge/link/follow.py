@@ -41,7 +41,8 @@ class FollowGoal:
     heading_deg: float = 0.0     # the way to set out along the line, counter-clockwise from +X
     feed_mm_s: float = 0.0       # 0: the most the board follows at (MAX_RATE)
     lost_mm: float = 5.0         # no sensor on black for this far: the line is lost
-    distance_mm: float = 0.0     # stop after this far; 0: once round to the start, or lost
+    distance_mm: float = 0.0     # stop after this many mm of steps (along a slant the pen gets less far,
+                                 # down to 1/sqrt(2)); 0: once round to the start, or lost
     gate_mm: float = 3.5         # the start gate's half width: half the line's width suits
 
 

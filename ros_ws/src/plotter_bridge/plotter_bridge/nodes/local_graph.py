@@ -2,7 +2,8 @@
 
 Starts the serial bridge and the G-code streamer (and, with a mock board,
 the simulated board in a thread) on one executor, and runs programs through
-the streamer's `run_program` action exactly as a separate client would.
+the streamer's `run_program` action exactly as a separate client would;
+board commands (a line follow's `F`) go to the bridge's `stream_commands`.
 """
 from __future__ import annotations
 
@@ -10,14 +11,14 @@ import tempfile
 import threading
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Callable, Optional, Tuple
+from typing import Callable, List, Optional, Tuple
 
 import rclpy
 from rclpy.context import Context
 from rclpy.executors import MultiThreadedExecutor
 from rclpy.parameter import Parameter
 
-from plotter_interfaces.action import RunProgram
+from plotter_interfaces.action import RunProgram, StreamCommands
 
 from plotter_bridge.gcode.dialect import GCodeOptions
 from plotter_bridge.link.protocol import DEFAULT_BAUD
@@ -25,6 +26,7 @@ from plotter_bridge.nodes.action_client import ActionClient
 from plotter_bridge.motion.kinematics import DEFAULT_Z_STEPS_PER_MM, Machine
 from plotter_bridge.sim.faults import FaultSpec
 from plotter_bridge.sim.mock_board import MockBoard, MockBoardConfig
+from plotter_bridge.sim.sheet import Sheet
 
 from .gcode_streamer import GCodeStreamer
 from .late_clients import retry_late_answers
@@ -59,6 +61,7 @@ class GraphOptions:
     gcode: GCodeOptions = field(default_factory=GCodeOptions)   # the programs' dialect and pen rules
     fit_arcs: bool = True          # the streamer's fit_arcs
     arc_tolerance: float = 0.02    # mm: the streamer's arc_tolerance
+    sheet: Optional[Sheet] = None  # mock board: black lines under the pen (machine mm), for line following
 
 
 @dataclass
@@ -89,7 +92,7 @@ class LocalGraph:
                               z_steps_per_mm=options.z_steps_per_mm)
             self.board = MockBoard(MockBoardConfig(baud=options.baud, trace=options.trace, link=port,
                                                    seq_log=options.seq_log, faults=options.faults,
-                                                   machine=machine))
+                                                   machine=machine, sheet=options.sheet))
             self.board.start()
         if not port:
             raise ValueError("no port given (use --port PORT or --mock)")
@@ -119,6 +122,7 @@ class LocalGraph:
         self.client_node = rclpy.create_node("plotter_cli", namespace=options.namespace,
                                              context=self._context)
         self._client = ActionClient(self.client_node, RunProgram, "run_program")
+        self._commands = ActionClient(self.client_node, StreamCommands, "stream_commands")
         # Both action callbacks (bridge and streamer) wait for the board: spare threads keep
         # goal responses, feedback and topics flowing meanwhile.
         self._executor = MultiThreadedExecutor(num_threads=8, context=self._context)
@@ -129,35 +133,48 @@ class LocalGraph:
     def run_program(self, text: str, name: str = "program",
                     progress: Optional[ProgressCallback] = None,
                     timeout: float = 24 * 3600.0, resume: str = "") -> ProgramResult:
-        if not self._client.wait_for_server(timeout_sec=10.0):
-            return ProgramResult(False, "gcode streamer not available", 0.0, 0.0)
-        if self.board is not None:
-            # Not answered by then: the streamer refuses the job, saying why.
-            self.bridge.session.wait_connected(MOCK_ANSWER_S)
         goal = RunProgram.Goal()
         goal.program, goal.name, goal.resume = text, name, resume
+        feedback = (lambda fb: progress(fb.feedback)) if progress else None
+        r, why = self._run_goal(self._client, goal, feedback, timeout, "the gcode streamer", "program refused")
+        if r is None:
+            return ProgramResult(False, why, 0.0, 0.0)
+        return ProgramResult(r.success, r.message, r.x_mm, r.y_mm, r.job_id, self.bridge.z_mm())
+
+    def stream_commands(self, commands: List[str], timeout: float = 24 * 3600.0) -> Tuple[bool, str]:
+        """Board commands as one job of the bridge's: (success, message) when it ends."""
+        r, why = self._run_goal(self._commands, StreamCommands.Goal(commands=commands), None, timeout,
+                                "the serial bridge", "the serial bridge refused the job (another one runs)")
+        return (False, why) if r is None else (r.success, r.message)
+
+    def _run_goal(self, client: ActionClient, goal, feedback, timeout: float, server: str, refused: str):
+        """Send a goal and wait for its result: (result, "") or (None, why there is none).
+        Ctrl-C or the time-out cancels it."""
+        if not client.wait_for_server(timeout_sec=10.0):
+            return None, f"{server} is not available"
+        if self.board is not None:
+            # Not answered by then: the job is refused, saying why.
+            self.bridge.session.wait_connected(MOCK_ANSWER_S)
         done = threading.Event()
-        send = self._client.send_goal_async(
-            goal, feedback_callback=(lambda fb: progress(fb.feedback)) if progress else None)
+        send = client.send_goal_async(goal, feedback_callback=feedback)
         send.add_done_callback(lambda _: done.set())
         if not done.wait(10.0):
-            return ProgramResult(False, "no answer from the streamer", 0.0, 0.0)
+            return None, f"no answer from {server}"
         handle = send.result()
         if not handle.accepted:
-            return ProgramResult(False, "program refused", 0.0, 0.0)
+            return None, refused
         finished = threading.Event()
         res = handle.get_result_async()
         res.add_done_callback(lambda _: finished.set())
         try:
             if not finished.wait(timeout):
                 handle.cancel_goal_async()
-                return ProgramResult(False, "timed out", 0.0, 0.0)
+                return None, "timed out"
         except KeyboardInterrupt:
             handle.cancel_goal_async()
             finished.wait(10.0)
             raise
-        r = res.result().result
-        return ProgramResult(r.success, r.message, r.x_mm, r.y_mm, r.job_id, self.bridge.z_mm())
+        return res.result().result, ""
 
     def close(self) -> None:
         # The nodes and the action client go only once the spin thread has
@@ -166,6 +183,7 @@ class LocalGraph:
         self._spin.stop()
         with teardown_watchdog():
             self._client.destroy()
+            self._commands.destroy()
             for node in (self.client_node, self.streamer, self.bridge):
                 node.destroy_node()
             if self.board is not None:
