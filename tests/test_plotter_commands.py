@@ -44,7 +44,7 @@ def test_commands_of_other_packages_join_the_table_and_a_broken_one_is_reported(
 def test_without_extensions_the_own_commands_remain(monkeypatch):
     monkeypatch.setattr(cli, "entry_points", lambda group: [])
     assert list(cli.all_commands()) == ["check", "stream", "resume", "jobs", "watch", "state", "hold", "estop",
-                                        "reset", "set-origin", "home"]
+                                        "reset", "set-origin", "home", "follow"]
 
 
 @pytest.mark.ros
@@ -52,6 +52,6 @@ def test_installed_plotter_lists_the_shapes_commands():
     plotter = REPO / ".venv" / "bin" / "plotter"
     r = subprocess.run([str(plotter), "--help"], capture_output=True, text=True, timeout=60)
     assert r.returncode == 0, r.stderr
-    for name in ("check", "stream", "resume", "jobs", "watch", "draw", "svg", "text"):
+    for name in ("check", "stream", "resume", "jobs", "watch", "follow", "draw", "svg", "text"):
         assert f"    {name} " in r.stdout, (name, r.stdout)
     assert r.stderr == ""

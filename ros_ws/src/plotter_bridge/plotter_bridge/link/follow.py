@@ -41,8 +41,9 @@ class FollowGoal:
     heading_deg: float = 0.0     # the way to set out along the line, counter-clockwise from +X
     feed_mm_s: float = 0.0       # 0: the most the board follows at (MAX_RATE)
     lost_mm: float = 5.0         # no sensor on black for this far: the line is lost
-    distance_mm: float = 0.0     # stop after this many mm of steps (along a slant the pen gets less far,
-                                 # down to 1/sqrt(2)); 0: once round to the start, or lost
+    # Stop after this many mm of steps (along a slant the pen gets less far along the line, down to
+    # 1/sqrt(2) of it); 0: once round to the start, or lost.
+    distance_mm: float = 0.0
     gate_mm: float = 3.5         # the start gate's half width: half the line's width suits
 
 
