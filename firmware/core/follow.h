@@ -69,7 +69,7 @@ extern volatile XDATA uint8_t follow_next;
 #define FOLLOW_STATE_HOME     2 /* a stop: its code (FOLLOW_HOME...) - FOLLOW_HOME + 2 */
 #define FOLLOW_STATE_LOST     3
 #define FOLLOW_STATE_DISTANCE 4
-#define FOLLOW_STATE_STOPPED  5 /* ended by a reset, an e-stop or a limit (the A field says which) */
+#define FOLLOW_STATE_STOPPED  5 /* ended by a reset or an alarm (the A field says which) */
 extern volatile XDATA uint8_t follow_state;
 
 uint32_t follow_travelled(void);     /* steps followed by the current or last F */
