@@ -6,7 +6,6 @@ from __future__ import annotations
 
 import math
 import threading
-import time
 
 import pytest
 
@@ -55,7 +54,12 @@ def test_the_bridge_streams_f_to_a_board_over_a_sheet_and_state_says_why_it_stop
         result = future.result().get_result_async()
         wait_until(result.done, 120, "the follow's end")
         assert result.result().status == GoalStatus.STATUS_SUCCEEDED
-        time.sleep(1.0)                                     # a status report after the end
+
+        def came_home():
+            with lock:
+                return states[-1].follow_state_name == "home"
+        # The job ends on a status report at rest, which the probe may take a while to receive.
+        wait_until(came_home, 30, "a state saying home")
         with lock:
             end = states[-1]
             running = [s for s in states if s.follow_state_name == "running"]
