@@ -3,7 +3,8 @@ goal in mm and degrees as the board's `F`, every reason a goal is refused
 given at once, and the follow fields of a FOLLOW=1 board's status report."""
 import pytest
 
-from plotter_bridge.link.follow import FollowError, FollowGoal, follow_command, follow_state_name
+from plotter_bridge.link.follow import (FollowError, FollowGoal, FollowTrack, follow_command, follow_state_name,
+                                        goal_or_defaults)
 from plotter_bridge.link.protocol import Status, checksum, parse_reply
 
 
@@ -55,3 +56,35 @@ def test_a_job_with_a_follow_has_no_end_the_session_can_foretell():
     from plotter_bridge.link.board_session import displacement
     assert displacement(["L 10 -5 2000 0", "A 4 0 2 0"]) == (14, -5)
     assert displacement(["P 0", "F 6 400 0 280", "L 10 0"]) is None
+
+
+def test_unset_lost_and_gate_of_a_message_mean_the_defaults_and_the_rest_is_kept():
+    goal = goal_or_defaults(90.0, 2.5, 0.0, 20.0, 0.0)
+    assert goal == FollowGoal(90.0, 2.5, FollowGoal().lost_mm, 20.0, FollowGoal().gate_mm)
+    # A bad value is not a default: it stays, for follow_command to refuse.
+    assert goal_or_defaults(0.0, 0.0, -1.0, 0.0, 2.0).lost_mm == -1.0
+
+
+def test_the_track_counts_the_path_only_while_the_board_follows_and_ends_where_the_job_ends():
+    track = FollowTrack()
+    track.add(2, 5000, (50.0, 50.0))          # the last follow's state while the pen goes to the start
+    track.add(2, 5000, (0.0, 0.0))            # at the start, the F not begun
+    assert (track.steps, track.length_mm) == (0, 0.0)
+    track.add(1, 240, (3.0, 0.0))
+    track.add(1, 560, (3.0, 4.0))
+    assert (track.steps, track.length_mm) == (560, 7.0)
+    track.add(3, 800, (3.0, 10.0))            # stopped: the end comes with the job's result
+    assert track.length_mm == 7.0
+    track.end(800, (3.0, 7.0))
+    assert (track.steps, track.length_mm) == (800, 10.0)
+
+
+def test_a_follow_too_short_for_any_feedback_is_the_chord_from_the_start_to_its_end():
+    track = FollowTrack()
+    track.add(0, 0, (1.0, 1.0))
+    track.end(400, (4.0, 5.0))
+    assert (track.steps, track.length_mm) == (400, 5.0)
+    stopped_before = FollowTrack()
+    stopped_before.add(0, 0, (1.0, 1.0))
+    stopped_before.end(0, (1.0, 1.0))
+    assert (stopped_before.steps, stopped_before.length_mm) == (0, 0.0)

@@ -253,9 +253,9 @@ def test_the_readme_workflow_commands_are_the_ones_tested():
     readme = (REPO / "README.md").read_text()
     section = readme.split("### A plotter that already runs", 1)[1].split("\n#", 1)[0]
     shown = {line.split()[1] for line in section.splitlines() if line.strip().startswith("plotter ")}
-    # home: tests/test_homing.py::test_plotter_home_on_a_running_graph
+    # home: tests/test_homing.py::test_plotter_home_on_a_running_graph; follow: tests/test_follow_graph.py
     tested = {"stream", "draw", "svg", "text", "watch", "state", "hold", "resume", "estop", "reset", "set-origin",
-              "home"}
+              "home", "follow"}
     assert shown and shown <= tested, shown - tested
 
 

@@ -57,7 +57,7 @@ def test_follow_says_where_a_line_was_lost_and_fails(tmp_path):
 
 @pytest.mark.parametrize("args, why", [
     (["--mock", "--start", "1", "2"], "needs --sheet"),
-    (["--start", "1", "2"], "give --mock"),
+    (["--start", "1", "2", "--steps-per-mm", "100"], "--steps-per-mm: only with --port or --mock"),
     (["--port", "/dev/null", "--sheet", "x.gcode", "--start", "1", "2"], "--sheet goes with --mock"),
     (["--mock", "--sheet", "x.gcode", "--start", "1", "2", "--machine", "hanging"], "XY table only"),
     (["--mock", "--sheet", "/nonexistent.gcode", "--start", "1", "2"], "No such file"),

@@ -47,8 +47,8 @@ class Bridge:
         x_mm, y_mm = self.ends.pop(0)
         self.callbacks.append(feedback_callback)
         feedback_callback(feedback(x_mm / 2, y_mm / 2))
-        result = SimpleNamespace(success=True, completed=len(goal.commands), message="done",
-                                 x_mm=x_mm, y_mm=y_mm)
+        result = SimpleNamespace(success=True, executed=len(goal.commands), completed=len(goal.commands),
+                                 message="done", x_mm=x_mm, y_mm=y_mm, follow_state=0, followed_steps=0)
         return done(SimpleNamespace(accepted=True, get_result_async=lambda: done(SimpleNamespace(result=result)),
                                     cancel_goal_async=lambda: done(None)))
 
@@ -112,8 +112,7 @@ def test_the_outcome_carries_the_position_its_job_ended_at(streamer):
     # Taken on the worker as the job ends, before the worker can start the
     # next job, which replaces the streamer's position.
     streamer._bridge = Bridge([(50.0, 30.0)])
-    streamer.run = lambda *args, **kwargs: streamer._stream(record(JOB_A), None)
-    out = streamer._timed_run("G0 X50 Y30", "units", None, "")
+    out = streamer._timed_run("units", lambda: streamer._stream(record(JOB_A), None))
     assert out.success and out.xy == (50.0, 30.0)
 
 

@@ -4,9 +4,9 @@ Without `--port` or `--mock` the job goes to the node graph running in
 `--namespace` (the nodes started as scripts, with `ros2 run` or `ros2
 launch`, on this machine or another in the same ROS domain): `stream`,
 `svg`, `text` and `resume` send a `run_program` goal to gcode_streamer,
-`draw` a `draw` goal to shape_server; `state` reads `/plotter/state` once,
-`hold`, `resume`, `estop`, `reset`, `set-origin` and `home` call serial_bridge's
-services.  Ctrl-C cancels the goal: the pen stops where it is and nothing
+`follow` a `follow_line` goal, `draw` a `draw` goal to shape_server;
+`state` reads `/plotter/state` once, `hold`, `resume`, `estop`, `reset`,
+`set-origin` and `home` call serial_bridge's services.  Ctrl-C cancels the goal: the pen stops where it is and nothing
 more is drawn.
 """
 from __future__ import annotations
@@ -26,9 +26,11 @@ GOAL_ANSWER_WAIT_S = 30.0
 CANCEL_WAIT_S = 15.0   # how long a cancelled goal may take to end
 
 # Which node serves what, and how to start it (for the message when it is missing).
+STARTS_STREAMER = ("gcode_streamer", "ros2 run plotter_bridge gcode_streamer --ros-args --params-file "
+                                     "<config/plotter.yaml>  (or: python -m plotter_bridge.nodes.gcode_streamer)")
 STARTS = {
-    "run_program": ("gcode_streamer", "ros2 run plotter_bridge gcode_streamer --ros-args --params-file "
-                                      "<config/plotter.yaml>  (or: python -m plotter_bridge.nodes.gcode_streamer)"),
+    "run_program": STARTS_STREAMER,
+    "follow_line": STARTS_STREAMER,
     "draw": ("shape_server", "ros2 run plotter_shapes shape_server --ros-args --params-file "
                              "<config/plotter.yaml>  (or: python -m plotter_shapes.shape_server_node)"),
     "serial_bridge": ("serial_bridge", "ros2 run plotter_bridge serial_bridge --ros-args --params-file "

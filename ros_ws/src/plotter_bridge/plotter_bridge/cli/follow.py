@@ -1,7 +1,11 @@
 """`plotter follow`: line following (seed 003) on a board built with
 FOLLOW=1, or on a mock board with a sheet under its pen.
 
-The pen goes up to the start (--start X Y, machine mm) as a G-code move
+Without --port or --mock the goal goes to the plotter running in
+--namespace: gcode_streamer's `follow_line` action, which does what
+follows in its own nodes and reports the length followed.
+
+With --port or --mock the pen goes up to the start (--start X Y, machine mm) as a G-code move
 through the streamer, then the board's `F` runs as a job of the bridge's
 (link/follow.py turns the goal into it).  The board's status says why the
 follow stopped and how many steps it took.  With --mock the sheet is an SVG
@@ -20,12 +24,11 @@ from importlib.metadata import entry_points
 from pathlib import Path
 from typing import Optional, TextIO, Tuple
 
-from plotter_bridge.link.follow import FollowError, FollowGoal, follow_command, follow_state_name
+from plotter_bridge.link.follow import FINISHED, FollowError, FollowGoal, follow_command, follow_state_name
 
 from .command import EXIT_BAD_PROGRAM, EXIT_FAILED, EXIT_OK, Command
 
-# Why a follow may stop and the command still says it did what was asked.
-FINISHED = ("home", "distance")
+PLAIN_PERIOD = 2.0      # s between the lines that show a follow on a running plotter
 # Readers of sheets other than G-code, by file suffix (name) -> path -> polylines in machine mm.
 SHEET_GROUP = "plotter.sheets"
 
@@ -55,9 +58,6 @@ def _configure(p: argparse.ArgumentParser) -> None:
 def run_follow(args: argparse.Namespace, out: Optional[TextIO] = None, err: Optional[TextIO] = None) -> int:
     from plotter_bridge.sim.sheet import SensorRing, SheetError
     out, err = out or sys.stdout, err or sys.stderr
-    if not (args.port or args.mock):
-        err.write("plotter follow runs the plotter's nodes itself for now: give --mock (with --sheet) or --port\n")
-        return EXIT_BAD_PROGRAM
     if args.mock and not args.sheet:
         err.write("plotter follow --mock needs --sheet LINE.svg: the lines under the mock board's pen\n")
         return EXIT_BAD_PROGRAM
@@ -68,10 +68,12 @@ def run_follow(args: argparse.Namespace, out: Optional[TextIO] = None, err: Opti
         err.write(f"line following runs on the XY table only, not the {args.machine} machine: "
                   f"its sensors' directions are the motors' axes\n")
         return EXIT_BAD_PROGRAM
-    steps_per_mm = args.steps_per_mm or 80.0
     gate = args.width / 2 if args.gate is None else args.gate
     goal = FollowGoal(heading_deg=args.heading, feed_mm_s=args.feed, lost_mm=args.lost,
                       distance_mm=args.distance, gate_mm=gate)
+    if not (args.port or args.mock):
+        return follow_on_graph(args, goal, out, err)
+    steps_per_mm = args.steps_per_mm or 80.0
     try:
         command = follow_command(goal, steps_per_mm)
         sheet = load_sheet(args.sheet, args.width) if args.sheet else None
@@ -126,6 +128,60 @@ def run_follow(args: argparse.Namespace, out: Optional[TextIO] = None, err: Opti
         return EXIT_FAILED
     out.write(summary + "\n")
     return EXIT_OK
+
+
+def follow_on_graph(args: argparse.Namespace, goal: FollowGoal, out: TextIO, err: TextIO) -> int:
+    """The goal as gcode_streamer's follow_line, on the plotter running in --namespace (its own
+    parameters say the steps per mm and the work area; it refuses a bad goal with every reason)."""
+    from .run import EXIT_INTERRUPTED, client_refusal
+    why = client_refusal(args)
+    if why:
+        err.write(f"{why}\n")
+        return EXIT_BAD_PROGRAM
+    from plotter_interfaces.action import FollowLine
+    from .client import GraphClient, Missing
+    x, y = args.start
+    request = FollowLine.Goal(start_x_mm=x, start_y_mm=y, heading_deg=goal.heading_deg, feed_mm_s=goal.feed_mm_s,
+                              lost_mm=goal.lost_mm, distance_mm=goal.distance_mm, gate_mm=goal.gate_mm)
+    show = FollowLines(err) if not args.quiet else (lambda fb: None)
+    with GraphClient(args.namespace) as client:
+        try:
+            outcome = client.run_goal(FollowLine, "follow_line", request, show)
+        except Missing as exc:
+            err.write(f"follow: {exc}\n")
+            return EXIT_FAILED
+        except KeyboardInterrupt:
+            err.write("follow: canceled; the pen stopped where it was\n")
+            return EXIT_INTERRUPTED
+    if outcome.status == "rejected":
+        err.write("follow: the plotter rejected the goal (its queue is full: see its log)\n")
+        return EXIT_FAILED
+    r = outcome.result
+    if outcome.status == "succeeded":
+        out.write(f"follow: {r.message}\n")
+        return EXIT_OK
+    err.write(f"follow: {r.message}\n")
+    return EXIT_FAILED
+
+
+class FollowLines:
+    """A running follow's feedback as plain lines, one per PLAIN_PERIOD at most."""
+
+    def __init__(self, out: TextIO, clock=None) -> None:
+        import time
+        self.out, self.clock, self._last = out, clock or time.monotonic, -1e9
+
+    def __call__(self, fb) -> None:
+        now = self.clock()
+        if now - self._last < PLAIN_PERIOD:
+            return
+        self._last = now
+        if fb.jobs_ahead:
+            self.out.write(f"follow: waiting, {fb.jobs_ahead} job(s) ahead\n")
+        else:
+            self.out.write(f"follow: {fb.steps} steps, {fb.length_mm:.1f} mm, sensors {fb.sensors:03b}, "
+                           f"X {fb.x_mm:.3f}  Y {fb.y_mm:.3f} mm\n")
+        self.out.flush()
 
 
 def load_sheet(path: str, width_mm: float):

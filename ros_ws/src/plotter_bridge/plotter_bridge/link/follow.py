@@ -8,7 +8,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
-from typing import List
+from typing import List, Optional, Tuple
 
 HEADINGS = 24                    # core/follow.h FOLLOW_DIRS: notches of 15 degrees
 MAX_RATE = 250                   # steps/s: the ramp's start rate, the most F runs at
@@ -17,6 +17,9 @@ MAX_GATE = 16383                 # steps: F's gate argument
 MAX_STEPS = 65535                # steps: F's lost and distance arguments
 # The status report's F field (core/follow.h FOLLOW_STATE_*).
 FOLLOW_STATES = ("none", "running", "home", "lost", "distance", "stopped")
+RUNNING = 1
+# The stops after which a follow did what was asked.
+FINISHED = ("home", "distance")
 
 
 class FollowError(ValueError):
@@ -77,6 +80,41 @@ def follow_command(goal: FollowGoal, steps_per_mm: float) -> str:
         raise FollowError("; ".join(problems))
     heading = heading_notch(goal.heading_deg)
     return f"F {heading} {lost} {distance} {gate}" + (f" {rate}" if rate else "")
+
+
+def goal_or_defaults(heading_deg: float, feed_mm_s: float, lost_mm: float, distance_mm: float,
+                     gate_mm: float) -> FollowGoal:
+    """A goal from a message whose unset (0) lost distance and gate mean the defaults."""
+    default = FollowGoal()
+    return FollowGoal(heading_deg, feed_mm_s, lost_mm or default.lost_mm, distance_mm,
+                      gate_mm or default.gate_mm)
+
+
+@dataclass
+class FollowTrack:
+    """The pen's path while the board follows, from the positions reported meanwhile (the bridge's
+    feedback, a few a second): before the follow runs the last position is its start, after it the
+    path ends at the end the job reports."""
+    length_mm: float = 0.0
+    steps: int = 0
+    began: bool = False
+    last: Optional[Tuple[float, float]] = None
+
+    def add(self, state: int, steps: int, xy: Tuple[float, float]) -> None:
+        if state == RUNNING:
+            self.began = True
+            self.steps = steps
+            if self.last is not None:
+                self.length_mm += math.dist(self.last, xy)
+        elif self.began:          # stopped: only the end is still to come
+            return
+        self.last = xy
+
+    def end(self, steps: int, xy: Tuple[float, float]) -> None:
+        """The job's end: the follow took `steps` and the pen is at xy."""
+        if steps and self.last is not None:
+            self.length_mm += math.dist(self.last, xy)
+        self.steps, self.last, self.began = steps, xy, True
 
 
 def follow_state_name(code: int) -> str:

@@ -32,6 +32,14 @@ moves that axis, from where the board reports it, inside `z_min`..`z_max`
 (gcode/parser.py says in which order with X and Y); `z_mode:=pen`, the default,
 keeps Z for the pen.
 
+The `follow_line` action (plotter_interfaces/FollowLine) is line following
+on a board built with FOLLOW=1, as a job in the same queue: the pen goes up
+to the start as a job of its own (the board starts an `F` only at rest),
+then the board's `F` runs as another; the feedback and the result give the
+steps, the length followed in mm and why it stopped.  A follow stopped
+part-way is not offered a resume: its `F` sent again would start over
+from where the pen stands.
+
 Parameters other than the machine's may change while the node runs (`ros2
 param set`); a change applies from the next job on.
 """
@@ -43,7 +51,7 @@ import time
 import traceback
 import uuid
 from dataclasses import dataclass, replace
-from typing import Optional, Tuple
+from typing import Callable, List, Optional, Tuple
 
 from rclpy.action import ActionServer, CancelResponse, GoalResponse
 from rclpy.action.server import ServerGoalHandle
@@ -52,7 +60,7 @@ from rclpy.node import Node
 from std_msgs.msg import String
 from unique_identifier_msgs.msg import UUID
 
-from plotter_interfaces.action import RunProgram, StreamCommands
+from plotter_interfaces.action import FollowLine, RunProgram, StreamCommands
 from plotter_interfaces.msg import BoardState
 from plotter_interfaces.srv import JobStatus
 
@@ -61,6 +69,8 @@ from plotter_bridge.gcode.dialect import (DEFAULT_MARLIN_PEN_DOWN, DEFAULT_MARLI
 from plotter_bridge.gcode.limits import WorkArea
 from plotter_bridge.gcode.parser import program_name
 from plotter_bridge.gcode.types import GCodeError
+from plotter_bridge.link.follow import (FINISHED, FollowError, FollowTrack, follow_command,
+                                        follow_state_name, goal_or_defaults)
 from plotter_bridge.link.journal import (DONE, INTERRUPTED, RUNNING, Journal, JobRecord, Progress,
                                          default_journal_dir, resume_commands)
 from plotter_bridge.link.protocol import MAX_RATE
@@ -88,6 +98,8 @@ class Outcome:
     job_id: str = ""
     canceled: bool = False
     xy: Optional[Tuple[float, float]] = None    # the pen (mm) when the job ended
+    # A job whose every command started, on a board with line sensors: its follow's state and steps at the end.
+    follow: Optional[Tuple[int, int]] = None
 
 
 def check_request(program: str, name: str, resume: str) -> Optional[str]:
@@ -183,9 +195,13 @@ class GCodeStreamer(Node):
         self._job_status = self.create_client(JobStatus, "job_status", callback_group=group)
         # Goals are answered one at a time, in the order they come (a mutually
         # exclusive group), so that the queue keeps their order.
+        in_order = MutuallyExclusiveCallbackGroup()
         self._server = ActionServer(self, RunProgram, "run_program", self._execute,
                                     goal_callback=self._on_goal, cancel_callback=self._on_cancel,
-                                    callback_group=MutuallyExclusiveCallbackGroup())
+                                    callback_group=in_order)
+        self._follow_server = ActionServer(self, FollowLine, "follow_line", self._execute_follow,
+                                           goal_callback=self._on_goal, cancel_callback=self._on_cancel,
+                                           callback_group=in_order)
         self._board: Optional[BoardState] = None
         self._board_changed = threading.Condition()
         self.create_subscription(BoardState, "state", self._on_state, latched(), callback_group=group)
@@ -213,8 +229,7 @@ class GCodeStreamer(Node):
         self.get_logger().warn(f"{name}: refused: {why}")
 
     # --- one job at a time ---------------------------------------------------------
-    async def _run_in_turn(self, key, text: str, name: str, goal_handle, resume: str,
-                           dialect: str = "") -> Outcome:
+    async def _run_in_turn(self, key, name: str, goal_handle, job: Callable[[], Outcome]) -> Outcome:
         """Wait for the job's turn, then run it on the worker thread."""
         turn = self._queue.enter(key)
         self._tell_waiting()
@@ -223,8 +238,7 @@ class GCodeStreamer(Node):
         try:
             if goal_handle is not None and goal_handle.is_cancel_requested:
                 return Outcome(False, "canceled before it ran", canceled=True)
-            job = self._worker.run(self._timed_run, text, name, goal_handle, resume, dialect)
-            return await self._waker.wait(job)
+            return await self._waker.wait(self._worker.run(self._timed_run, name, job))
         except Exception as exc:  # a bug must not leave the job without an outcome
             self.get_logger().error(f"{name}: internal error: {exc!r}\n{traceback.format_exc()}")
             return Outcome(False, f"internal error: {exc}")
@@ -236,12 +250,13 @@ class GCodeStreamer(Node):
         """Feedback to the goals that wait: how many jobs are ahead of each."""
         for key in self._queue.waiting():
             if isinstance(key, ServerGoalHandle) and key.is_active:
-                key.publish_feedback(RunProgram.Feedback(jobs_ahead=self._queue.ahead(key)))
+                kind = FollowLine if isinstance(key.request, FollowLine.Goal) else RunProgram
+                key.publish_feedback(kind.Feedback(jobs_ahead=self._queue.ahead(key)))
 
-    def _timed_run(self, text: str, name: str, goal_handle, resume: str, dialect: str = "") -> Outcome:
+    def _timed_run(self, name: str, job: Callable[[], Outcome]) -> Outcome:
         t0 = time.monotonic()
         # The position is taken here, on the worker, before it can start the next job.
-        out = replace(self.run(text, name, goal_handle, resume, dialect), xy=self._position.xy)
+        out = replace(job(), xy=self._position.xy)
         if out.success:
             self.get_logger().info(f"{name}: {out.message} in {time.monotonic() - t0:.1f} s")
         elif out.canceled:
@@ -257,7 +272,7 @@ class GCodeStreamer(Node):
         if why is None and self._queue.full():
             why = f"{self._queue.limit} jobs already waiting: program dropped"
         if why is None:
-            out = await self._run_in_turn(object(), msg.data, name, None, "")
+            out = await self._run_in_turn(object(), name, None, lambda: self.run(msg.data, name, None))
             why = None if out.success else out.message
         elif why:
             self._refused(name, why)
@@ -286,7 +301,8 @@ class GCodeStreamer(Node):
             self._refused(name, why)
             out = Outcome(False, why)
         else:
-            out = await self._run_in_turn(goal_handle, req.program, name, goal_handle, req.resume, req.dialect)
+            out = await self._run_in_turn(goal_handle, name, goal_handle,
+                                          lambda: self.run(req.program, name, goal_handle, req.resume, req.dialect))
         result = RunProgram.Result()
         result.success, result.message, result.lines_done = out.success, out.message, out.lines_done
         result.job_id = out.job_id
@@ -299,23 +315,99 @@ class GCodeStreamer(Node):
             goal_handle.abort()
         return result
 
+    # --- follow_line -----------------------------------------------------------
+    async def _execute_follow(self, goal_handle):
+        req = goal_handle.request
+        where = "where the pen is" if req.from_here else f"X{req.start_x_mm:g} Y{req.start_y_mm:g}"
+        name = f"follow from {where}"
+        track = FollowTrack()
+        out = await self._run_in_turn(goal_handle, name, goal_handle,
+                                      lambda: self.run_follow(req, goal_handle, track))
+        result = FollowLine.Result()
+        result.x_mm, result.y_mm = out.xy if out.xy is not None else self._position.xy
+        result.job_id, result.message = out.job_id, out.message
+        if out.follow is not None:
+            state, steps = out.follow
+            track.end(steps, (result.x_mm, result.y_mm))
+            result.reason = follow_state_name(state)
+            result.success = out.success and result.reason in FINISHED
+            if out.success:
+                result.message = (f"{result.reason} after {steps} steps ({track.length_mm:.1f} mm), pen at "
+                                  f"X{result.x_mm:.3f} Y{result.y_mm:.3f} mm")
+                if result.success:
+                    self.get_logger().info(f"{name}: {result.message}")
+                else:
+                    self._refused(name, result.message)
+        else:
+            result.reason = "canceled" if out.canceled else "not run"
+        result.steps, result.length_mm = track.steps, track.length_mm
+        if goal_handle.is_cancel_requested and not result.success:
+            goal_handle.canceled()
+        elif result.success:
+            goal_handle.succeed()
+        else:
+            goal_handle.abort()
+        return result
+
+    def run_follow(self, req, goal_handle, track: FollowTrack) -> Outcome:
+        """A follow_line goal as a job: the pen up to the start, then the board's F (on the worker thread)."""
+        board = self._board_state()
+        why = board_refusal(board)
+        if why:
+            return Outcome(False, why)
+        if not board.has_sensors:
+            return Outcome(False, "the board reports no line sensors: line following needs the firmware built "
+                                  "with FOLLOW=1 (or the mock board with a sheet)")
+        if self.machine.kind != "cartesian":
+            return Outcome(False, f"line following runs on the XY table only, not the {self.machine.kind} "
+                                  f"machine: its sensors' directions are the motors' axes")
+        problems: List[str] = []
+        goal = goal_or_defaults(req.heading_deg, req.feed_mm_s, req.lost_mm, req.distance_mm, req.gate_mm)
+        try:
+            command = follow_command(goal, self.machine.steps_per_mm)
+        except FollowError as exc:
+            problems.append(str(exc))
+        texts: List[str] = []
+        if not req.from_here:
+            start = f"G21 G90\nG0 X{req.start_x_mm:.4f} Y{req.start_y_mm:.4f}\n"
+            try:
+                moves = compile_program(start, self._job_config(board), (board.x_steps, board.y_steps),
+                                        board.z_steps)
+                texts = [c.text for c in moves]
+            except GCodeError as exc:
+                problems.append(f"start X{req.start_x_mm:g} Y{req.start_y_mm:g}: {exc}")
+        if problems:
+            return Outcome(False, "; ".join(problems))
+
+        def publish(fb) -> None:
+            track.add(fb.follow_state, fb.followed_steps, (fb.x_mm, fb.y_mm))
+            goal_handle.publish_feedback(FollowLine.Feedback(steps=track.steps, length_mm=track.length_mm,
+                                                             sensors=fb.sensors, x_mm=fb.x_mm, y_mm=fb.y_mm))
+        if texts:
+            # A job of its own: the board starts an F only at rest, not behind a move (E10).
+            to_start = self._record(f"to the start of a follow, X{req.start_x_mm:g} Y{req.start_y_mm:g}",
+                                    texts, [1] * len(texts), board)
+            moved = self._stream(to_start, goal_handle, publish)
+            if not moved.success:
+                return replace(moved, message=f"the pen did not reach the start: {moved.message}")
+            if goal_handle.is_cancel_requested:
+                return Outcome(False, "canceled at the start", 0, moved.job_id, canceled=True)
+            board = self._board_state() or board
+        # A follow stopped part-way is not finished by sending its F again: the start gate would move.
+        return self._stream(self._record("follow", [command], [1], board), goal_handle, publish, resumable=False)
+
     def run(self, text: str, name: str, goal_handle, resume: str = "", dialect: str = "") -> Outcome:
         """Run one program, or resume a journalled job (on the worker thread:
         it waits for the board)."""
         board = self._board_state()
-        if board is None:
-            return Outcome(False, "board not connected (no state from serial_bridge)")
-        if board.state == BoardState.DISCONNECTED:
-            return Outcome(False, "board not connected" + (f": {board.last_error}" if board.last_error else ""))
-        if not board.position_known:
-            return Outcome(False, "position unknown after a board reset: call set_origin first")
+        why = board_refusal(board)
+        if why:
+            return Outcome(False, why)
         start = (board.x_steps, board.y_steps)
         if resume:
             return self._resume(resume, board, goal_handle)
         try:
-            config = replace(self.config, dialect=dialect or self.config.dialect, link_seq=board.next_seq,
-                             link_baud=link_baud(int(self.params["link_baud"]), board.link_baud))
-            commands = compile_program(text, config, start, board.z_steps)
+            commands = compile_program(text, self._job_config(board, dialect), start, board.z_steps)
         except GCodeError as exc:
             return Outcome(False, str(exc))
         if not commands:
@@ -324,11 +416,34 @@ class GCodeStreamer(Node):
         if z_line is not None and not board.has_z:
             return Outcome(False, f"line {z_line}: a Z move, and the board reports no Z axis "
                                   f"(firmware built without ZAXIS=1)")
+        record = self._record(name, [c.text for c in commands], [c.line for c in commands], board)
+        return self._stream(record, goal_handle, self._program_feedback(record, goal_handle))
+
+    def _job_config(self, board: BoardState, dialect: str = "") -> StreamerConfig:
+        """The compiler's settings for a job on this board now."""
+        return replace(self.config, dialect=dialect or self.config.dialect, link_seq=board.next_seq,
+                       link_baud=link_baud(int(self.params["link_baud"]), board.link_baud))
+
+    def _record(self, name: str, commands: List[str], lines: List[int], board: BoardState) -> JobRecord:
         rapid = int(min(MAX_RATE, self.config.rapid_feed / 60.0 * self.config.motor_steps_per_mm()))
-        record = JobRecord(uuid.uuid4().hex, name, [c.text for c in commands], [c.line for c in commands],
-                           start, bool(board.pen_down), rapid, board.z_steps if board.has_z else None,
-                           self.machine.text())
-        return self._stream(record, goal_handle)
+        return JobRecord(uuid.uuid4().hex, name, commands, lines, (board.x_steps, board.y_steps),
+                         bool(board.pen_down), rapid, board.z_steps if board.has_z else None, self.machine.text())
+
+    def _program_feedback(self, record: JobRecord, goal_handle) -> Optional[Callable[[object], None]]:
+        """run_program's feedback from the bridge's: the line, the share done and the time left."""
+        if goal_handle is None:
+            return None
+        timing = self._timing(record)
+        total_lines = max(record.lines, default=0)
+
+        def publish(fb) -> None:
+            out = RunProgram.Feedback()
+            out.current_line = fb.current_line
+            out.total_lines = total_lines
+            out.progress, out.seconds_left = timing.update(int(fb.executed), time.monotonic())
+            out.x_mm, out.y_mm = fb.x_mm, fb.y_mm
+            goal_handle.publish_feedback(out)
+        return publish
 
     def _resume(self, job_id: str, board: BoardState, goal_handle) -> Outcome:
         try:
@@ -356,7 +471,7 @@ class GCodeStreamer(Node):
         line = record.lines[completed] if completed < len(record.lines) else 0
         self.get_logger().info(f"resuming {record.name} at command {completed + 1} of "
                                f"{len(record.commands)} (line {line}) as job {new.job_id}")
-        return self._stream(new, goal_handle)
+        return self._stream(new, goal_handle, self._program_feedback(new, goal_handle))
 
     def _bridge_job(self, job_id: str) -> Optional[JobStatus.Response]:
         """What the bridge knows of one of its jobs, after waiting a little for
@@ -373,7 +488,10 @@ class GCodeStreamer(Node):
                 return status
             time.sleep(0.2)
 
-    def _stream(self, record: JobRecord, goal_handle) -> Outcome:
+    def _stream(self, record: JobRecord, goal_handle, publish: Optional[Callable[[object], None]] = None,
+                resumable: bool = True) -> Outcome:
+        """Stream a journalled job through the bridge; publish(the bridge's feedback) as it runs.  A job
+        stopped part-way says how to finish it if it is resumable."""
         job_id = record.job_id
         self.journal.create(record)
         total_lines = max(record.lines, default=0)
@@ -385,7 +503,6 @@ class GCodeStreamer(Node):
         goal.lines = record.lines
         goal.machine = record.machine
         progress = Progress()
-        timing = self._timing(record)
 
         # This job's own: a late feedback of an earlier job cannot touch it.
         position = self._position = JobPosition(self._position.xy)
@@ -394,13 +511,8 @@ class GCodeStreamer(Node):
             fb = fb_msg.feedback
             position.feedback((fb.x_mm, fb.y_mm))
             progress.completed = max(progress.completed, int(fb.executed) - 1)
-            if goal_handle is not None:
-                out = RunProgram.Feedback()
-                out.current_line = fb.current_line
-                out.total_lines = total_lines
-                out.progress, out.seconds_left = timing.update(int(fb.executed), time.monotonic())
-                out.x_mm, out.y_mm = fb.x_mm, fb.y_mm
-                goal_handle.publish_feedback(out)
+            if publish is not None:
+                publish(fb)
 
         send = self._bridge.send_goal_async(goal, feedback_callback=relay,
                                             goal_uuid=UUID(uuid=list(bytes.fromhex(job_id))))
@@ -446,11 +558,13 @@ class GCodeStreamer(Node):
         completed = len(record.commands) if res.success else int(res.completed)
         self.journal.update(job_id, Progress(completed, DONE if res.success else INTERRUPTED, res.message))
         lines_done = record.lines[completed - 1] if completed else 0
+        follow = (int(res.follow_state), int(res.followed_steps)) if res.executed >= len(record.commands) else None
         if res.success:
-            return Outcome(True, "done", total_lines, job_id)
+            return Outcome(True, "done", total_lines, job_id, follow=follow)
         if goal_handle is not None and goal_handle.is_cancel_requested:
-            return Outcome(False, "canceled", lines_done, job_id, canceled=True)
-        return Outcome(False, stopped_message(res.message, completed, record, job_id), lines_done, job_id)
+            return Outcome(False, "canceled", lines_done, job_id, canceled=True, follow=follow)
+        why = stopped_message(res.message, completed, record, job_id) if resumable else res.message
+        return Outcome(False, why, lines_done, job_id, follow=follow)
 
     def _timing(self, record: JobRecord) -> JobProgress:
         """The job's progress model: the pen's path and the plan's time per command."""
@@ -461,6 +575,17 @@ class GCodeStreamer(Node):
     def destroy_node(self) -> None:
         self._worker.shutdown()
         super().destroy_node()
+
+
+def board_refusal(board: Optional[BoardState]) -> Optional[str]:
+    """Why no job can start on the board as the bridge last reported it, or None."""
+    if board is None:
+        return "board not connected (no state from serial_bridge)"
+    if board.state == BoardState.DISCONNECTED:
+        return "board not connected" + (f": {board.last_error}" if board.last_error else "")
+    if not board.position_known:
+        return "position unknown after a board reset: call set_origin first"
+    return None
 
 
 def stopped_message(why: str, completed: int, record: JobRecord, job_id: str) -> str:

@@ -270,7 +270,7 @@ class SerialBridge(Node):
                 (self.session.connection == CONNECTING and self.session.last_error):
             self._telemetry.on_link_lost(self.session.last_error)
             s = self._state_msg(BoardState.DISCONNECTED)
-            st = self.session.link.status if self.session.link else None
+            st = self._status()
             if st is not None:         # the last position the board reported
                 s.x_steps, s.y_steps = st.x, st.y
                 s.x_mm, s.y_mm = self.machine.pen_mm((st.x, st.y))
@@ -348,6 +348,9 @@ class SerialBridge(Node):
             self._reserved = False
         self._remember(job_id, outcome)
         result.x_mm, result.y_mm = self._position_mm()
+        st = self._status()
+        if st is not None and st.follow is not None:
+            result.follow_state, result.followed_steps = st.follow, st.followed
         result.message, result.executed, result.completed = outcome.message, outcome.executed, outcome.completed
         result.success = outcome.success
         if goal_handle.is_cancel_requested and not result.success:
@@ -376,6 +379,9 @@ class SerialBridge(Node):
         fb.total = len(job.commands)
         fb.acknowledged, fb.executed, fb.current_line = self.session.progress(job)
         fb.x_mm, fb.y_mm = self._position_mm()
+        st = self._status()
+        if st is not None and st.sensors is not None:
+            fb.sensors, fb.follow_state, fb.followed_steps = st.sensors, st.follow, st.followed
         running.goal_handle.publish_feedback(fb)
 
     def _remember(self, job_id: str, outcome: JobResult) -> None:
@@ -404,11 +410,15 @@ class SerialBridge(Node):
 
     def z_mm(self) -> Optional[float]:
         """The Z axis as the board last reported it; None without one."""
-        st = self.session.link.status if self.session.link else None
+        st = self._status()
         return None if st is None or st.z is None else st.z / self.machine.z_steps_per_mm
 
+    def _status(self) -> Optional[Status]:
+        """The board's last status report (None before the first)."""
+        return self.session.link.status if self.session.link else None
+
     def _position_mm(self) -> tuple:
-        st = self.session.link.status if self.session.link else None
+        st = self._status()
         if st is None:
             return 0.0, 0.0
         return self.machine.pen_mm((st.x, st.y))
