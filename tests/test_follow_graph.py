@@ -174,6 +174,39 @@ def test_a_bad_follow_goal_is_refused_with_every_reason_and_nothing_moves(graph)
     assert len(read_trace(graph.trace)) == before
 
 
+def test_the_page_shows_the_sensors_and_follows_from_its_button(graph):
+    from test_web_ui import browser, free_port, text, web_ui
+    port = free_port()
+    ui = web_ui(graph.domain, "-p", f"port:={port}")
+    driver = None
+    try:
+        wait_until(lambda: f"plotter page on http://127.0.0.1:{port}/" in ui.output(), 30, "the web server")
+        driver = browser()
+        driver.get(f"http://127.0.0.1:{port}/")
+        wait_until(lambda: text(driver, "state") == "IDLE", 60, "IDLE on the page")
+        assert driver.find_element("id", "follow-box").is_displayed()
+        before = len(read_trace(graph.trace))
+        driver.find_element("id", "follow-here").click()          # from a start of its own
+        for element_id, value in (("follow-x", "0"), ("follow-y", "0"), ("follow-heading", "90"),
+                                  ("follow-distance", "10")):
+            field = driver.find_element("id", element_id)
+            field.clear()
+            field.send_keys(value)
+        driver.find_element("id", "follow").click()
+        wait_until(lambda: text(driver, "job-status") == "succeeded", 120, "the follow to succeed")
+        assert text(driver, "message").startswith("follow: distance after 800 steps"), text(driver, "message")
+        assert text(driver, "job-steps") == "800"
+        assert 5.0 <= float(text(driver, "job-length")) <= 10.5      # 800 steps: 10 mm of steps, less along a slant
+        wait_until(lambda: text(driver, "follow-state") == "distance", 15, "the state saying distance")
+        assert text(driver, "sensors") == "\u25cf\u25cf\u25cf"          # on the ring: all three on black
+        assert len(read_trace(graph.trace)) - before >= 800
+    finally:
+        if driver is not None:
+            driver.quit()
+        assert ui.interrupt() == 0, ui.output()
+        ui.close()
+
+
 def test_a_sheet_the_mock_board_cannot_use_ends_it_with_one_clear_line(tmp_path):
     missing = NodeProcess("plotter_bridge.nodes.mock_board", new_domain(),
                           ("-p", f"sheet:={tmp_path / 'none.gcode'}", "-p", f"link:={tmp_path / 'pty'}"))

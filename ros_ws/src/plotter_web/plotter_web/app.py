@@ -45,6 +45,10 @@ CHECKED_KEPT = 16
 BUTTONS = ("hold", "resume", "cancel", "estop", "reset", "set_origin", "home")
 
 
+# The follow box's numbers (FollowLine's goal, in mm, mm/s and degrees).
+FOLLOW_FIELDS = ("start_x_mm", "start_y_mm", "heading_deg", "feed_mm_s", "lost_mm", "distance_mm")
+
+
 class Refused(Exception):
     """A request the plotter cannot do now (409) or at all (400); the text says why."""
 
@@ -60,6 +64,7 @@ class Backend(Protocol):
     async def draw(self, fields: dict) -> str: ...
     async def jog(self, dx: float, dy: float) -> str: ...
     async def button(self, name: str) -> str: ...
+    async def follow(self, fields: dict) -> str: ...
 
 
 class WebApp:
@@ -80,6 +85,7 @@ class WebApp:
             web.post("/api/draw", self._draw),
             web.post("/api/jog", self._jog),
             web.post("/api/button/{name}", self._button),
+            web.post("/api/follow", self._follow),
         ])
 
     # --- access ------------------------------------------------------------------------
@@ -191,6 +197,12 @@ class WebApp:
         body = await self._json(request)
         dx, dy = _number(body.get("dx", 0), "dx"), _number(body.get("dy", 0), "dy")
         return web.json_response({"message": await self.backend.jog(dx, dy)})
+
+    async def _follow(self, request: web.Request) -> web.Response:
+        body = await self._json(request)
+        fields = {name: _number(body.get(name, 0) or 0, name) for name in FOLLOW_FIELDS}
+        fields["from_here"] = bool(body.get("from_here"))
+        return web.json_response({"message": await self.backend.follow(fields)})
 
     async def _button(self, request: web.Request) -> web.Response:
         name = request.match_info["name"]

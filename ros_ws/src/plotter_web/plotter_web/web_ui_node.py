@@ -5,7 +5,8 @@
 
 It is a client of whatever plotter runs in its namespace (default
 /plotter): it shows `state`, `ink` and `planned_path` live, sends jobs as
-`run_program` goals (files, jog moves) and `draw` goals (shapes), and calls
+`run_program` goals (files, jog moves), `draw` goals (shapes) and, for a
+board with line sensors (FOLLOW=1), `follow_line` goals, and calls
 the bridge's services (hold, resume, estop, reset, set_origin, home).  One job
 from the page at a time: a new one while it runs, or while the board is
 busy, disconnected or in alarm, is refused with the reason and nothing
@@ -72,11 +73,11 @@ class WebUi(Node):
     def __init__(self, *, namespace: str = DEFAULT_NAMESPACE, **kwargs) -> None:
         super().__init__("web_ui", namespace=namespace, **kwargs)
         from nav_msgs.msg import Path
-        from plotter_interfaces.action import DrawShape, RunProgram
+        from plotter_interfaces.action import DrawShape, FollowLine, RunProgram
         from plotter_interfaces.msg import BoardState
         from visualization_msgs.msg import Marker
         self.params = NodeParameters(self, SPECS, cross=check_web)
-        self._RunProgram, self._DrawShape = RunProgram, DrawShape
+        self._RunProgram, self._DrawShape, self._FollowLine = RunProgram, DrawShape, FollowLine
         self._disconnected, self._idle = BoardState.DISCONNECTED, BoardState.IDLE
         group = ReentrantCallbackGroup()
         self._state = None
@@ -92,6 +93,7 @@ class WebUi(Node):
         self.create_subscription(Path, "planned_path", self._on_planned, latched(), callback_group=group)
         self._run_client = ActionClient(self, RunProgram, "run_program", callback_group=group)
         self._draw_client = ActionClient(self, DrawShape, "draw", callback_group=group)
+        self._follow_client = ActionClient(self, FollowLine, "follow_line", callback_group=group)
         self._triggers = {name: self.create_client(Trigger, srv, callback_group=group)
                           for name, srv in SERVICES.items()}
         token = str(self.params["token"])
@@ -121,7 +123,10 @@ class WebUi(Node):
         return {"type": "state", "state": s.state_name, "connected": s.state != self._disconnected,
                 "x_mm": s.x_mm, "y_mm": s.y_mm, "pen_down": s.pen_down, "position_known": s.position_known,
                 "queue_free": s.queue_free, "queue_size": s.queue_size, "last_error": s.last_error,
-                "firmware": s.firmware_version}
+                "firmware": s.firmware_version,
+                # A board with line sensors (FOLLOW=1): those on black, bit i = sensor i; its follow's state.
+                "sensors": s.sensors if s.has_sensors else None,
+                "follow_state": s.follow_state_name if s.has_sensors else None}
 
     def _on_state(self, msg) -> None:
         self._state = msg
@@ -205,6 +210,18 @@ class WebUi(Node):
         name = (goal.shape or "shape") + (" reversed" if goal.reverse else "")
         return await self._send(self._draw_client, self._DrawShape.Goal(shape=goal), name, "draw", "shape_server")
 
+    async def follow(self, fields: dict) -> str:
+        """A follow_line goal; gcode_streamer refuses a bad one with every reason."""
+        s = self._state
+        if s is not None and s.state != self._disconnected and not s.has_sensors:
+            raise Refused("the board reports no line sensors: line following needs the firmware built with "
+                          "FOLLOW=1")
+        self._ready_for_a_job()
+        goal = self._FollowLine.Goal(from_here=fields["from_here"], gate_mm=0.0,
+                                     **{k: v for k, v in fields.items() if k != "from_here"})
+        return await self._send(self._follow_client, goal, "follow", "follow_line", "gcode_streamer",
+                                self._on_follow_feedback)
+
     async def button(self, name: str) -> str:
         if name == "cancel":
             handle = self._handle
@@ -221,7 +238,9 @@ class WebUi(Node):
             raise Refused(f"{name}: {response.message}")
         return f"{name}: {response.message}"
 
-    async def _send(self, client: ActionClient, goal, name: str, action: str, node: str) -> str:
+    async def _send(self, client: ActionClient, goal, name: str, action: str, node: str,
+                    on_feedback=None) -> str:
+        on_feedback = on_feedback or self._on_feedback
         self._set_job(name=name, status="sending", progress=0.0, seconds_left=0.0, line=0, message="")
         for _ in range(int(SERVER_WAIT_S / 0.1)):     # just started: discovery may still be on its way
             if client.server_is_ready():
@@ -233,7 +252,7 @@ class WebUi(Node):
             raise Refused(why)
         try:
             handle = await asyncio.wait_for(_wrap(client.send_goal_async(
-                goal, feedback_callback=lambda fb: self._on_feedback(fb.feedback))), 10.0)
+                goal, feedback_callback=lambda fb: on_feedback(fb.feedback))), 10.0)
         except asyncio.TimeoutError:
             self._set_job(status="aborted", message=f"{node} did not answer")
             raise Refused(f"{node} did not answer the goal") from None
@@ -249,6 +268,9 @@ class WebUi(Node):
         self._set_job(progress=float(fb.progress), seconds_left=float(fb.seconds_left),
                       line=int(fb.current_line), jobs_ahead=int(fb.jobs_ahead))
 
+    def _on_follow_feedback(self, fb) -> None:
+        self._set_job(steps=int(fb.steps), length_mm=round(float(fb.length_mm), 1), jobs_ahead=int(fb.jobs_ahead))
+
     def _on_result(self, handle, wrapped) -> None:
         from action_msgs.msg import GoalStatus
         status = {GoalStatus.STATUS_SUCCEEDED: "succeeded", GoalStatus.STATUS_CANCELED: "canceled"}.get(
@@ -256,8 +278,11 @@ class WebUi(Node):
         message = wrapped.result.message
         if self._handle is handle:
             self._handle = None
+        followed = {}
+        if hasattr(wrapped.result, "length_mm"):          # a follow: what it followed
+            followed = {"steps": int(wrapped.result.steps), "length_mm": round(float(wrapped.result.length_mm), 1)}
         self._set_job(status=status, message=message, progress=1.0 if status == "succeeded" else None,
-                      seconds_left=0.0)
+                      seconds_left=0.0, **followed)
         if status != "succeeded":
             self.web.publish({"type": "message", "level": "error" if status == "aborted" else "info",
                               "text": f"{self._job['name']}: {status}: {message}"})

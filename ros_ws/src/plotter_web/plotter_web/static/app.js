@@ -90,6 +90,12 @@ function setState(s) {
     pen.setAttribute("cx", s.x_mm); pen.setAttribute("cy", -s.y_mm);
     pen.setAttribute("class", s.pen_down ? "down" : "");
   }
+  const sensors = s.sensors !== undefined && s.sensors !== null;
+  $("follow-box").hidden = !sensors;
+  if (sensors) {
+    $("sensors").textContent = [0, 1, 2].map((i) => (s.sensors >> i) & 1 ? "●" : "○").join("");
+    $("follow-state").textContent = s.follow_state;
+  }
   enable();
 }
 
@@ -109,7 +115,12 @@ function setJob(j) {
   $("job-percent").textContent = `${Math.round((j.progress || 0) * 100)}%`;
   $("job-left").textContent = j.status === "running" ? clock(j.seconds_left || 0) : "–";
   $("job-line").textContent = j.line || "–";
-  if (j.status === "succeeded") show(`${j.name}: done`, false);
+  $("job-follow").hidden = j.steps === undefined;
+  if (j.steps !== undefined) {
+    $("job-steps").textContent = String(j.steps);
+    $("job-length").textContent = j.length_mm.toFixed(1);
+  }
+  if (j.status === "succeeded") show(`${j.name}: ${j.message && j.message !== "done" ? j.message : "done"}`, false);
   enable();
 }
 
@@ -119,6 +130,7 @@ function enable() {
   const idle = board.connected && board.state === "IDLE" && !busy();
   for (const b of document.querySelectorAll(".jog")) b.disabled = !idle;
   $("cancel").disabled = !busy();
+  $("follow").disabled = !idle;
   $("run").disabled = !checkedId;
 }
 
@@ -193,6 +205,13 @@ $("draw").addEventListener("click", () => click("api/draw", {
   shape: $("shape").value, x: Number($("shape-x").value), y: Number($("shape-y").value),
   size: Number($("shape-size").value), feed: Number($("shape-feed").value),
   clockwise: $("shape-cw").checked, reverse: $("shape-reverse").checked,
+}).catch(() => {}));
+
+$("follow").addEventListener("click", () => click("api/follow", {
+  from_here: $("follow-here").checked, start_x_mm: Number($("follow-x").value),
+  start_y_mm: Number($("follow-y").value), heading_deg: Number($("follow-heading").value),
+  feed_mm_s: Number($("follow-feed").value), lost_mm: Number($("follow-lost").value),
+  distance_mm: Number($("follow-distance").value),
 }).catch(() => {}));
 
 setArea(area);
