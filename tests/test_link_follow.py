@@ -1,11 +1,16 @@
 """The host's side of line following (link/follow.py, link/protocol.py): a
 goal in mm and degrees as the board's `F`, every reason a goal is refused
 given at once, and the follow fields of a FOLLOW=1 board's status report."""
+import re
+from pathlib import Path
+
 import pytest
 
 from plotter_bridge.link.follow import (FollowError, FollowGoal, FollowTrack, follow_command, follow_state_name,
                                         goal_or_defaults)
 from plotter_bridge.link.protocol import Status, checksum, parse_reply
+
+FIRMWARE = Path(__file__).resolve().parent.parent / "firmware"
 
 
 def signed(body: str) -> str:
@@ -88,3 +93,25 @@ def test_a_follow_too_short_for_any_feedback_is_the_chord_from_the_start_to_its_
     stopped_before.add(0, 0, (1.0, 1.0))
     stopped_before.end(0, (1.0, 1.0))
     assert (stopped_before.steps, stopped_before.length_mm) == (0, 0.0)
+
+
+def _defines(*paths: str) -> dict:
+    """The firmware's `#define NAME value` numbers in these files (the last of each name: the #else's)."""
+    out: dict = {}
+    for path in paths:
+        for name, value in re.findall(r"^#define\s+(\w+)\s+(0x[0-9A-Fa-f]+|\d+)u?\b", (FIRMWARE / path).read_text(),
+                                      re.M):
+            out[name] = int(value, 0)
+    return out
+
+
+def test_the_hosts_limits_and_names_are_the_boards():
+    from plotter_bridge.link import follow
+    c = _defines("core/follow.h", "core/ramp.h", "core/planner.c")
+    assert follow.HEADINGS == c["FOLLOW_DIRS"]
+    assert follow.MAX_GATE == c["FOLLOW_MAX_GATE"]
+    assert follow.MAX_RATE == c["RAMP_R0"]
+    assert follow.MIN_RATE == c["FEED_MIN"]         # the 12-clock chip's, not CPU_6T's
+    assert follow.RUNNING == c["FOLLOW_STATE_RUNNING"]
+    states = {c[f"FOLLOW_STATE_{name.upper()}"]: name for name in follow.FOLLOW_STATES}
+    assert [states[i] for i in range(len(states))] == list(follow.FOLLOW_STATES)

@@ -30,6 +30,7 @@
 #define FOLLOW_DIRS        24   /* headings, 15 degrees apart; 0 is +X, counter-clockwise */
 #define FOLLOW_PROGRESS_STEPS 512 /* the pen must get a quarter of this far on in this many steps */
 #define FOLLOW_TURN        96   /* the steering's error, notches x steps, that turns the heading a notch */
+#define FOLLOW_MAX_GATE    16383 /* steps: the home gate's largest half width (<< 1 stays within 16 bits) */
 
 /* follow_tick's answer: a step (axis and sign) or why the mode stopped. */
 #define FOLLOW_STEP_XP     0
@@ -46,7 +47,7 @@ typedef struct {
     uint8_t heading;          /* 0 .. FOLLOW_DIRS-1: the direction to set out in */
     uint16_t lost_steps;      /* steps with no sensor on black before FOLLOW_LOST */
     uint16_t max_steps;       /* steps before FOLLOW_DISTANCE; 0: no limit */
-    uint16_t home_steps;      /* 0..16383: the start gate's half width, and how far the pen must go from the start
+    uint16_t home_steps;      /* 0..FOLLOW_MAX_GATE: the start gate's half width, and how far the pen must go from the start
                                  before crossing the gate counts as home */
 } follow_args_t;
 

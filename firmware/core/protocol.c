@@ -521,7 +521,7 @@ static uint8_t run_command(void)
 #ifdef FOLLOW
     if (cmd == 'F') {
         /* From rest only: the steering starts from the pen standing on the line. */
-        if (arg_mag[0] >= FOLLOW_DIRS || !arg_mag[1] || arg_mag[3] > 16383) return E_RANGE;
+        if (arg_mag[0] >= FOLLOW_DIRS || !arg_mag[1] || arg_mag[3] > FOLLOW_MAX_GATE) return E_RANGE;
         if (nargs == 4) arg_mag[PLAN_FEED] = 0;
         if (planner_busy()) return E_BUSY;
         return planner_follow();

@@ -69,12 +69,8 @@ def switches_mm(text: str) -> Optional[Tuple[float, float]]:
     """'X,Y' in mm, or None for ''; ValueError naming what is wrong."""
     if not text.strip():
         return None
-    parts = text.split(",")
-    try:
-        x, y = (float(v) for v in parts)
-    except ValueError:
-        raise ValueError(f"switches = {text!r}: two numbers 'X,Y' in mm, e.g. '-6.5,-4'") from None
-    if not (math.isfinite(x) and math.isfinite(y) and x <= 0.0 and y <= 0.0):
+    x, y = point_mm("switches", text, "-6.5,-4")
+    if x > 0.0 or y > 0.0:
         raise ValueError(f"switches = {text!r}: the switches are at or below the power-on position (X, Y <= 0)")
     return x, y
 
@@ -89,12 +85,12 @@ def check_switches(values) -> Optional[str]:
     return None
 
 
-def point_mm(name: str, text: str) -> Tuple[float, float]:
+def point_mm(name: str, text: str, example: str = "130,100") -> Tuple[float, float]:
     """'X,Y' in mm; ValueError naming the parameter and what is wrong."""
     try:
         x, y = (float(v) for v in text.split(","))
     except ValueError:
-        raise ValueError(f"{name} = {text!r}: two numbers 'X,Y' in mm, e.g. '130,100'") from None
+        raise ValueError(f"{name} = {text!r}: two numbers 'X,Y' in mm, e.g. '{example}'") from None
     if not (math.isfinite(x) and math.isfinite(y)):
         raise ValueError(f"{name} = {text!r}: finite numbers")
     return x, y
