@@ -113,7 +113,7 @@ def path_length(trace: Sequence[Point], every: int = 20) -> float:
 def main(argv: Sequence[str]) -> int:
     sys.path[:0] = ["ros_ws/src/plotter_bridge"]
     from plotter_bridge.sim.firmware_core import FirmwareCore
-    from plotter_bridge.sim.follow import FollowArgs, follow
+    from plotter_bridge.sim.follow import FollowGoal, follow
     from plotter_bridge.sim.sheet import SensorRing, Sheet
     core = FirmwareCore(argv[0] if argv else None)
     ring = SensorRing(3.0)
@@ -122,7 +122,8 @@ def main(argv: Sequence[str]) -> int:
     for width in (7.0, 8.0):
         for line in LINES:
             sheet = Sheet([line.points], width)
-            run = follow(core, sheet, ring, FollowArgs(line.start, line.heading_deg), cap_steps=CAP_STEPS)
+            goal = FollowGoal(line.heading_deg, gate_mm=width / 2)
+            run = follow(core, sheet, ring, line.start, goal, cap_steps=CAP_STEPS)
             trace = run.trace_mm(80.0)
             dev = distances(trace[::4], [line.points]).max()
             print(f"| {line.name} | {width:g} | {run.reason} | {path_length(trace) / line.length:.2f} | {dev:.2f} |",

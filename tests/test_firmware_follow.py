@@ -68,8 +68,7 @@ def host_follow(command: str, sheet: Sheet, start: tuple) -> HostRun:
         core.receive(command.encode() + b"\n")
         core.poll(4)
         while core.timer_running():
-            x, y = core.position
-            bits = sheet.sensor_bits(start[0] + x / SPM, start[1] + y / SPM, RING)
+            bits = sheet.sensor_bits_from(start, core.position, SPM, RING)
             core.set_sensors(bits)
             if core.follow_mailbox in (BEGIN, WAIT):
                 run.bits.append(bits)             # the main loop decides a step now

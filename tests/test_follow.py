@@ -18,7 +18,7 @@ import pytest
 
 from follow_lines import LINES, Line, circle, distances, path_length, sine_wave, square, with_gap
 from plotter_bridge.sim.firmware_core import FirmwareCore
-from plotter_bridge.sim.follow import FollowArgs, FollowError, follow
+from plotter_bridge.sim.follow import FollowError, FollowGoal, follow
 from plotter_bridge.sim.sheet import SensorRing, Sheet, SheetError
 
 SPM = 80.0
@@ -40,6 +40,11 @@ def shifted(line: Line, dx: float, dy: float) -> Line:
                 line.heading_deg, line.closed, line.sharp)
 
 
+def along(line, width: float, **kw) -> FollowGoal:
+    """Setting out along the line, the start gate half its width."""
+    return FollowGoal(line.heading_deg, gate_mm=width / 2, **kw)
+
+
 SMOOTH = [line for line in LINES if not line.sharp]
 
 
@@ -48,7 +53,7 @@ SMOOTH = [line for line in LINES if not line.sharp]
 @pytest.mark.parametrize("line", SMOOTH, ids=[line.name for line in SMOOTH])
 def test_a_closed_smooth_line_is_followed_once_round_on_the_black(core, line, place, width):
     line = shifted(line, *place)
-    run = follow(core, Sheet([line.points], width), RING, FollowArgs(line.start, line.heading_deg), SPM, CAP)
+    run = follow(core, Sheet([line.points], width), RING, line.start, along(line, width), SPM, CAP)
     trace = run.trace_mm(SPM)
     assert run.reason == "home"
     # Once round: not a second lap, not back the way it came.
@@ -62,7 +67,7 @@ def test_a_closed_smooth_line_is_followed_once_round_on_the_black(core, line, pl
 @pytest.mark.parametrize("width", WIDTHS)
 def test_the_line_is_lost_where_it_ends(core, width):
     line = sine_wave(40.0, 100.0, 120.0, 10.0, 80.0)
-    run = follow(core, Sheet([line.points], width), RING, FollowArgs(line.start, line.heading_deg), SPM, CAP)
+    run = follow(core, Sheet([line.points], width), RING, line.start, along(line, width), SPM, CAP)
     trace = run.trace_mm(SPM)
     assert run.reason == "lost"
     # Followed to its end, and stopped within the lost distance and the sensors' reach of it.
@@ -74,7 +79,7 @@ def test_the_line_is_lost_where_it_ends(core, width):
 @pytest.mark.parametrize("width", WIDTHS)
 def test_a_short_gap_is_crossed(core, width):
     line = circle(100.0, 100.0, 30.0)
-    run = follow(core, Sheet(with_gap(line, 2.0), width), RING, FollowArgs(line.start, line.heading_deg), SPM, CAP)
+    run = follow(core, Sheet(with_gap(line, 2.0), width), RING, line.start, along(line, width), SPM, CAP)
     assert run.reason == "home"
     assert 0.98 <= path_length(run.trace_mm(SPM)) / line.length <= 1.15
 
@@ -84,14 +89,14 @@ def test_a_short_gap_is_crossed(core, width):
 def test_a_long_gap_loses_the_line_where_it_breaks_off(core, width):
     line = circle(100.0, 100.0, 30.0)
     pieces = with_gap(line, 40.0)
-    run = follow(core, Sheet(pieces, width), RING, FollowArgs(line.start, line.heading_deg), SPM, CAP)
+    run = follow(core, Sheet(pieces, width), RING, line.start, along(line, width), SPM, CAP)
     assert run.reason == "lost"
     assert math.dist(run.trace_mm(SPM)[-1], pieces[0][-1]) <= 5.0 + RING.radius_mm + width / 2 + 1.0
 
 
 def test_it_stops_after_the_distance_asked_for(core):
     line = circle(100.0, 100.0, 30.0)
-    run = follow(core, Sheet([line.points], 7.0), RING, FollowArgs(line.start, line.heading_deg, max_mm=50.0),
+    run = follow(core, Sheet([line.points], 7.0), RING, line.start, along(line, 7.0, distance_mm=50.0),
                  SPM, CAP)
     assert run.reason == "distance"
     assert len(run.trace) - 1 == 50 * SPM
@@ -101,7 +106,7 @@ def test_it_stops_after_the_distance_asked_for(core):
 @pytest.mark.parametrize("line", [square(100.0, 100.0, 60.0), square(150.0, 80.0, 40.0, ccw=False)],
                          ids=["square ccw", "square cw"])
 def test_a_square_is_followed_once_round(core, line):
-    run = follow(core, Sheet([line.points], 7.0), RING, FollowArgs(line.start, line.heading_deg), SPM, CAP)
+    run = follow(core, Sheet([line.points], 7.0), RING, line.start, along(line, 7.0), SPM, CAP)
     assert run.reason == "home"
     assert 0.98 <= path_length(run.trace_mm(SPM)) / line.length <= 1.15
 
@@ -138,16 +143,16 @@ def test_a_sheet_needs_a_line_width(width):
 def test_a_line_narrower_than_the_ring_is_refused_with_the_width_it_needs(core):
     line = circle(100.0, 100.0, 30.0)
     with pytest.raises(SheetError, match="wider than 6 mm"):
-        follow(core, Sheet([line.points], 5.0), RING, FollowArgs(line.start, line.heading_deg), SPM, CAP)
+        follow(core, Sheet([line.points], 5.0), RING, line.start, along(line, 5.0), SPM, CAP)
 
 
 @pytest.mark.parametrize("args, what", [
-    (FollowArgs((130.0, 100.0), lost_mm=0.0), "lost distance"),
-    (FollowArgs((130.0, 100.0), lost_mm=-1.0), "lost distance"),
-    (FollowArgs((130.0, 100.0), lost_mm=1000.0), "lost distance"),
-    (FollowArgs((130.0, 100.0), max_mm=float("inf")), "distance"),
+    (FollowGoal(lost_mm=0.0), "lost distance"),
+    (FollowGoal(lost_mm=-1.0), "lost distance"),
+    (FollowGoal(lost_mm=1000.0), "lost distance"),
+    (FollowGoal(distance_mm=float("inf")), "distance"),
 ])
 def test_bad_arguments_are_refused_before_anything_moves(core, args, what):
     line = circle(100.0, 100.0, 30.0)
     with pytest.raises(FollowError, match=what):
-        follow(core, Sheet([line.points], 7.0), RING, args, SPM, CAP)
+        follow(core, Sheet([line.points], 7.0), RING, (130.0, 100.0), args, SPM, CAP)

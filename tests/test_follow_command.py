@@ -55,8 +55,7 @@ def run(core: FirmwareCore, sheet: Sheet, start: tuple, until=None):
     """Step the board until it stops (or until(ticks) is true); the pen in mm at each step.
     The sensors follow the pen at every step, whenever the main loop reads them."""
     def sense():
-        x, y = core.position
-        core.set_sensors(sheet.sensor_bits(start[0] + x / SPM, start[1] + y / SPM, RING))
+        core.set_sensors(sheet.sensor_bits_from(start, core.position, SPM, RING))
 
     trace = [start]
     ticks = 0

@@ -384,10 +384,8 @@ class MockBoard:
             sx, sy = config.switches
             self.core.set_switches(self._carriage[0] <= sx, self._carriage[1] <= sy)
         if config.sheet is not None:
-            spm = config.machine.steps_per_mm
-            x0, y0 = config.sheet_start_mm
-            pen = (x0 + self._carriage[0] / spm, y0 + self._carriage[1] / spm)
-            self.core.set_sensors(config.sheet.sensor_bits(*pen, config.sensors))
+            self.core.set_sensors(config.sheet.sensor_bits_from(config.sheet_start_mm, self._carriage,
+                                                                config.machine.steps_per_mm, config.sensors))
 
     def _run_steps(self, now: float) -> None:
         core = self.core

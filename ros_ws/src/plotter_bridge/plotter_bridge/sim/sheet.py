@@ -83,6 +83,10 @@ class Sheet:
                 bits |= 1 << i
         return bits
 
+    def sensor_bits_from(self, start_mm: Point, steps: Tuple[int, int], steps_per_mm: float, ring: SensorRing) -> int:
+        """The sensors' bits with the pen `steps` (a board's count) from the sheet's point start_mm."""
+        return self.sensor_bits(start_mm[0] + steps[0] / steps_per_mm, start_mm[1] + steps[1] / steps_per_mm, ring)
+
     def check_ring(self, ring: SensorRing) -> None:
         if self.width_mm <= ring.min_width_mm:
             raise SheetError(f"a line {self.width_mm:g} mm wide is too narrow for sensors {ring.radius_mm:g} mm "
