@@ -22,7 +22,7 @@ export PLOTTER_REQUIRE_ROS=1
 
 echo "[test] pytest tests/"
 rc=0
-python -m pytest tests/ -q "$@" || rc=$?
+python -m pytest tests/ -q --durations=25 "$@" || rc=$?
 if [ "$rc" -eq 5 ]; then
     echo "[test] ERROR: pytest collected no tests" >&2
 fi
