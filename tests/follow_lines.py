@@ -3,7 +3,8 @@
 Each line is a polyline in mm with where the pen is put on it and the way
 it sets out; tests/test_follow.py runs the firmware's follow mode on them;
 `python tests/follow_lines.py` prints the figures of firmware/README.md
-("Line following"): sensors 3 mm from the pen, 80 steps/mm.
+("Line following"): sensors 3 mm from the pen, 80 steps/mm; with
+`--corners` the sweep that finds the sharpest corner followed.
 """
 from __future__ import annotations
 
@@ -58,6 +59,16 @@ def rounded_rectangle(cx: float, cy: float, w: float, h: float, r: float) -> Lin
             pts.append((x + r * math.cos(a), y + r * math.sin(a)))
     pts.append(pts[0])
     return Line(f"rounded rectangle {w:g}x{h:g} r{r:g}", tuple(pts), (cx + w / 2, cy), 90.0)
+
+
+def polygon(cx: float, cy: float, n: int, side: float, ccw: bool = True) -> Line:
+    """A regular n-gon, a side upright on the right, the pen put in its middle: each corner turns 360/n degrees."""
+    r = side / (2 * math.sin(math.pi / n))
+    pts = tuple((cx + r * math.cos(math.pi * (2 * k - 1) / n), cy + r * math.sin(math.pi * (2 * k - 1) / n))
+                for k in range(n + 1))
+    return Line(f"{n}-gon side {side:g} ({360 / n:g} degree corners) {'ccw' if ccw else 'cw'}",
+                pts if ccw else pts[::-1], (cx + r * math.cos(math.pi / n), cy), 90.0 if ccw else 270.0,
+                sharp=True)
 
 
 def figure_eight(cx: float, cy: float, a: float) -> Line:
@@ -115,12 +126,14 @@ def main(argv: Sequence[str]) -> int:
     from plotter_bridge.sim.firmware_core import FirmwareCore
     from plotter_bridge.sim.follow import FollowGoal, follow
     from plotter_bridge.sim.sheet import SensorRing, Sheet
+    corners = "--corners" in argv
+    argv = [a for a in argv if a != "--corners"]
     core = FirmwareCore(argv[0] if argv else None)
     ring = SensorRing(3.0)
     print("| line | width mm | why it stopped | path / line | most off centre mm |")
     print("|---|---|---|---|---|")
     for width in (7.0, 8.0):
-        for line in LINES:
+        for line in CORNERS if corners else LINES:
             sheet = Sheet([line.points], width)
             goal = FollowGoal(line.heading_deg, gate_mm=width / 2)
             run = follow(core, sheet, ring, line.start, goal, cap_steps=CAP_STEPS)
@@ -136,6 +149,12 @@ LINES = (
     square(100, 100, 60), square(150, 80, 40, ccw=False),
     rounded_rectangle(100, 100, 80, 50, 10),
     figure_eight(100, 100, 40),
+)
+
+# Corners: vertices turning 30 to 90 degrees, and right angles rounded to a radius (the sweep of --corners).
+CORNERS = (
+    *(polygon(100, 100, n, side, ccw) for n in (12, 10, 9, 8, 6, 4) for side in (20, 40) for ccw in (True, False)),
+    *(rounded_rectangle(100, 100, 60, 60, r) for r in (6, 7, 8, 9, 10, 12)),
 )
 
 

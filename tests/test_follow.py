@@ -5,7 +5,10 @@ The sensors sit 3 mm from the pen; the lines are 7 and 8 mm wide (wider
 than the ring, as the steering asks).  Over a sweep of closed smooth lines,
 both ways round and in two places, the pen goes once round and stops at
 the start, never off the black; a line that ends, or breaks off for longer
-than the lost distance, is reported lost where it ends.  Not yet: sharp
+than the lost distance, is reported lost where it ends.  Corners: vertices
+turning 30 degrees, and right angles rounded to 8 mm (7 mm line) or 10 mm
+(8 mm line), are followed once round; a sharper one stops the follow, lost
+or reversed, and never sends the pen round for ever.  Not yet: sharp
 corners, and a wider line that breaks off (the pen can turn back along it);
 those cases are strict expected failures.
 """
@@ -16,7 +19,8 @@ from pathlib import Path
 
 import pytest
 
-from follow_lines import LINES, Line, circle, distances, path_length, sine_wave, square, with_gap
+from follow_lines import (LINES, Line, circle, distances, path_length, polygon, rounded_rectangle, sine_wave, square,
+                          with_gap)
 from plotter_bridge.sim.firmware_core import FirmwareCore
 from plotter_bridge.sim.follow import FollowError, FollowGoal, follow
 from plotter_bridge.sim.sheet import SensorRing, Sheet, SheetError
@@ -109,6 +113,45 @@ def test_a_square_is_followed_once_round(core, line):
     run = follow(core, Sheet([line.points], 7.0), RING, line.start, along(line, 7.0), SPM, CAP)
     assert run.reason == "home"
     assert 0.98 <= path_length(run.trace_mm(SPM)) / line.length <= 1.15
+
+
+CORNERED = [(polygon(100.0, 100.0, 12, side, ccw), width) for side in (20.0, 40.0) for ccw in (True, False)
+            for width in WIDTHS] + [(rounded_rectangle(100.0, 100.0, 60.0, 60.0, 8.0), 7.0),
+                                    (rounded_rectangle(100.0, 100.0, 60.0, 60.0, 10.0), 8.0)]
+
+
+@pytest.mark.parametrize("line, width", CORNERED, ids=[f"{line.name} {width:g} mm" for line, width in CORNERED])
+def test_the_sharpest_corners_stated_are_followed_once_round_on_the_black(core, line, width):
+    line = shifted(line, *SHIFT)
+    run = follow(core, Sheet([line.points], width), RING, line.start, along(line, width), SPM, CAP)
+    trace = run.trace_mm(SPM)
+    assert run.reason == "home"
+    assert 0.98 <= path_length(trace) / line.length <= 1.15
+    assert distances(trace[::2], [line.points]).max() < width / 2
+
+
+TOO_SHARP = [polygon(100.0, 100.0, n, 40.0, ccw) for n in (8, 6, 5, 4, 3) for ccw in (True, False)] + \
+    [rounded_rectangle(100.0, 100.0, 60.0, 60.0, r) for r in (2.0, 6.0)]
+
+
+@pytest.mark.parametrize("width", WIDTHS)
+@pytest.mark.parametrize("line", TOO_SHARP, ids=[line.name for line in TOO_SHARP])
+def test_a_corner_too_sharp_stops_the_follow_and_never_sends_the_pen_round_for_ever(core, line, width):
+    # Before the reversed stop and the longer progress window the pen could turn back at a corner and go
+    # round backwards, or circle a corner, until the harness gave up.
+    run = follow(core, Sheet([line.points], width), RING, line.start, along(line, width), SPM, CAP)
+    assert run.reason in ("home", "lost", "reversed")
+    assert path_length(run.trace_mm(SPM)) < 2.0 * line.length
+
+
+def test_coming_back_through_the_start_the_other_way_is_reported_reversed(core):
+    # An 8-gon: the pen turns back at its first corner and comes down through the start.
+    line = polygon(100.0, 100.0, 8, 40.0)
+    run = follow(core, Sheet([line.points], 7.0), RING, line.start, along(line, 7.0), SPM, CAP)
+    trace = run.trace_mm(SPM)
+    assert run.reason == "reversed"
+    assert trace[-1][1] < line.start[1] and abs(trace[-1][0] - line.start[0]) <= 3.5
+    assert max(y for _, y in trace) > line.start[1] + 10.0           # it had gone up the side first
 
 
 # --- the sheet and the arguments -------------------------------------------------------------

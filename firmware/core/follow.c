@@ -86,8 +86,10 @@ static void check_progress(void)
 
 /* After a step: the start gate is the line through the start across the
  * heading the pen set out on; crossing it forwards, within home_steps of
- * the start, once the pen has been twice that far away, is home.  The pen
- * stays within 32767 steps of its start, or the line counts as lost. */
+ * the start, once the pen has been twice that far away, is home.  Crossing
+ * it backwards there is a stop too: the pen turned back somewhere and
+ * would go round the line backwards, never through the gate forwards.  The
+ * pen stays within 32767 steps of its start, or the line counts as lost. */
 static void check_home(void)
 {
     uint8_t behind = S.along < 0;
@@ -99,10 +101,11 @@ static void check_home(void)
         gate = follow_args.home_steps << 1;
         if (x > (uint16_t)gate || y > (uint16_t)gate)
             S.armed = 1;
-    } else if (!behind && S.behind) {
-        gate = (int32_t)follow_args.home_steps << 6;
-        if (S.across <= gate && S.across >= -gate)
-            S.stop = FOLLOW_HOME;
+    } else if (behind != S.behind) {
+        /* -g <= across <= g (g: the gate's half width x 64) as one unsigned comparison */
+        gate = S.across + ((int32_t)follow_args.home_steps << 6);
+        if ((uint32_t)gate <= (uint32_t)follow_args.home_steps << 7)
+            S.stop = behind ? FOLLOW_REVERSED : FOLLOW_HOME;
     }
     S.behind = behind;
 }

@@ -28,7 +28,7 @@
 #include <stdint.h>
 
 #define FOLLOW_DIRS        24   /* headings, 15 degrees apart; 0 is +X, counter-clockwise */
-#define FOLLOW_PROGRESS_STEPS 512 /* the pen must get a quarter of this far on in this many steps */
+#define FOLLOW_PROGRESS_STEPS 2048 /* the pen must get a quarter of this far on in this many steps */
 #define FOLLOW_TURN        96   /* the steering's error, notches x steps, that turns the heading a notch */
 #define FOLLOW_MAX_GATE    16383 /* steps: the home gate's largest half width (<< 1 stays within 16 bits) */
 
@@ -40,6 +40,8 @@
 #define FOLLOW_HOME        0x80 /* back through the start, across the heading it set out on */
 #define FOLLOW_LOST        0x81 /* no sensor on black for the lost distance, or no way on */
 #define FOLLOW_DISTANCE    0x82 /* followed the distance asked for */
+#define FOLLOW_REVERSED    0x84 /* back through the start against the way it set out: it turned back along the
+                                   line (at a corner too sharp), and would go round backwards for ever */
 
 #define FOLLOW_SENSOR_MASK 0x07 /* bit i: sensor i reads black */
 
@@ -71,6 +73,7 @@ extern volatile XDATA uint8_t follow_next;
 #define FOLLOW_STATE_LOST     3
 #define FOLLOW_STATE_DISTANCE 4
 #define FOLLOW_STATE_STOPPED  5 /* ended by a reset or an alarm (the A field says which) */
+#define FOLLOW_STATE_REVERSED 6 /* FOLLOW_REVERSED (0x83 would be state 5) */
 extern volatile XDATA uint8_t follow_state;
 
 uint32_t follow_travelled(void);     /* steps followed by the current or last F */

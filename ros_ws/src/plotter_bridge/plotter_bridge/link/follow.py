@@ -16,7 +16,7 @@ MIN_RATE = 15                    # steps/s: the board's slowest feed
 MAX_GATE = 16383                 # steps: F's gate argument
 MAX_STEPS = 65535                # steps: F's lost and distance arguments
 # The status report's F field (core/follow.h FOLLOW_STATE_*).
-FOLLOW_STATES = ("none", "running", "home", "lost", "distance", "stopped")
+FOLLOW_STATES = ("none", "running", "home", "lost", "distance", "stopped", "reversed")
 RUNNING = 1
 # The stops after which a follow did what was asked.
 FINISHED = ("home", "distance")

@@ -18,7 +18,7 @@ from .sheet import Sheet, SensorRing
 __all__ = ["FollowError", "FollowGoal", "FollowRun", "follow"]
 
 STEPS = {0: (1, 0), 1: (-1, 0), 2: (0, 1), 3: (0, -1)}
-STOPS = {0x80: "home", 0x81: "lost", 0x82: "distance"}
+STOPS = {0x80: "home", 0x81: "lost", 0x82: "distance", 0x84: "reversed"}  # core/follow.h FOLLOW_HOME...
 
 
 @dataclass
