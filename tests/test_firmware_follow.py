@@ -151,3 +151,30 @@ def test_the_image_follows_the_sheet_step_for_step_as_the_host_build(line, comma
     period_clocks = round(921_600 / feed) * 12
     for (k0, t0), (k1, t1) in zip(clocks, clocks[1:]):
         assert abs(t1 - t0 - (k1 - k0) * period_clocks) <= 8 * 12, f"takes {k0}..{k1}: {t1 - t0} clocks"
+
+
+def test_the_follow_key_on_p2_3_starts_a_follow_once_held_for_its_passes():
+    """The key held down (P2.3 low) with the pen on black: the image queues a follow of its own, after
+    FOLLOW_KEY_PASSES main-loop passes, and steps it."""
+    require_s51()
+    with s51sim.Sim(mcu_image(FOLLOW="1"), timeout=60) as sim:
+        sim.cmd(f"set hw port[2] 0x{pins(7):02x}")
+        sim.go()
+        sim.read_until(rb"ready[^\r\n]*\r\n")
+        sim.stop()
+        pressed = sim.ticks()
+        sim.cmd(f"set hw port[2] 0x{pins(7) & ~0x08:02x}")
+        sim.run_to(sim.sym["_planner_follow"], timeout=30)
+        debounce_ms = (sim.ticks() - pressed) / 11_059_200 * 1000
+        print(f"follow key: {debounce_ms:.1f} ms from the press to the follow queued (200 passes at rest)")
+        assert 1.0 <= debounce_ms <= 100.0
+        sim.go()
+        time.sleep(1.0)
+        sim.write(b"?")
+        status = STATUS.search(sim.read_until(rb"<[^>]*>"))
+        assert status, "no status report"
+        mode, x, y, alarm, bits, follow, walked = status.groups()
+        # All three on black: the line's way is unknown, so it keeps the heading, 0 (+X).
+        assert (mode, follow, bits, alarm) == (b"Run", b"1", b"7", b"0")
+        # X counts the steps taken, W those decided: one may be in the mailbox, one in the pulse.
+        assert int(walked) > 0 and 0 <= int(walked) - int(x) <= 2 and int(y) == 0

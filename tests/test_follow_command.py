@@ -199,3 +199,53 @@ def test_a_hold_pauses_the_follow_and_resume_goes_on_the_same_way(core):
     rest = run(core, sheet, line.start)
     assert status(core)["follow"] == 2
     assert first + held[1:] + rest[1:] == straight
+
+
+# --- the follow key (P2.3 on the board) ---------------------------------------------------------------
+
+KEY_PASSES = 200                       # core/follow.h FOLLOW_KEY_PASSES
+QUEUED, IDLE = 0xFC, 0xFD              # core/follow.h: the mailbox with an F queued, and with none
+BAR = ((100.0, 100.0), (160.0, 100.0))  # a straight line along X
+
+
+def press(core: FirmwareCore, passes: int) -> None:
+    core.set_follow_key(True)
+    core.poll(passes)
+
+
+def test_the_follow_key_held_at_rest_starts_a_follow_along_x_before_any_f(core):
+    sheet = Sheet([BAR], WIDTH)
+    core.set_sensors(sheet.sensor_bits_from((110.0, 100.0), (0, 0), SPM, RING))
+    press(core, KEY_PASSES - 1)                   # a bounce's worth: nothing
+    assert core.follow_mailbox == IDLE and not core.timer_running()
+    core.poll()                                   # the pass that queues it; the next starts it
+    assert core.follow_mailbox == QUEUED
+    core.set_follow_key(False)
+    core.poll()
+    assert core.timer_running()
+    trace = run(core, sheet, (110.0, 100.0))
+    s = status(core)
+    # Heading 0 (+X) to the bar's end at X160, and lost there (the lost distance is FOLLOW_KEY_LOST, 5 mm).
+    assert (s["state"], s["follow"]) == ("Idle", 3)
+    assert all(b[0] >= a[0] for a, b in zip(trace[:400], trace[1:400]))       # setting out along +X
+    assert 159.0 <= max(x for x, _ in trace) <= 160.0 + WIDTH / 2 + RING.radius_mm + 5.0
+
+
+def test_the_follow_key_repeats_the_last_f_once_a_press_and_not_while_busy(core):
+    sheet = Sheet([BAR], WIDTH)
+    start = (150.0, 100.0)
+    assert send(core, "F 12 400 800 280").startswith("ok")           # heading 12: -X, 800 steps
+    press(core, KEY_PASSES)                                         # held while it runs: not at rest, nothing
+    run(core, sheet, start)
+    assert (status(core)["follow"], core.position) == (4, (-800, 0))
+    core.poll(2 * KEY_PASSES)                                       # still held: no second follow
+    assert core.follow_mailbox == IDLE and not core.timer_running()
+    core.set_follow_key(False)
+    core.poll()
+    press(core, KEY_PASSES)                                         # a new press: the same F again
+    core.set_follow_key(False)
+    assert core.follow_mailbox == QUEUED
+    core.poll()
+    run(core, sheet, start)
+    s = status(core)
+    assert (s["follow"], s["walked"], core.position) == (4, 800, (-1600, 0))

@@ -217,18 +217,13 @@ uint32_t follow_travelled(void)
     return f_travelled;
 }
 
-/* The F's arguments sit in its segment (planner_follow): a = lost steps,
- * b = the home gate, c = the distance (0: none), dirs = the heading.  The
- * sensors are read only once the interrupt has taken the last step: read
- * before, they could be a main-loop pass older than that step. */
+/* The F's arguments are in follow_args (planner_follow).  The sensors are
+ * read only once the interrupt has taken the last step: read before, they
+ * could be a main-loop pass older than that step. */
 void follow_service(void)
 {
     uint8_t next = follow_next;
     if (next == FOLLOW_BEGIN) {
-        follow_args.heading = st_seg.dirs;
-        follow_args.lost_steps = (uint16_t)st_seg.a;
-        follow_args.home_steps = (uint16_t)st_seg.b;
-        follow_args.max_steps = (uint16_t)st_seg.c;
         follow_start();
         follow_state = FOLLOW_STATE_RUNNING;
         next = FOLLOW_WAIT;

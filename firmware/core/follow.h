@@ -30,6 +30,9 @@
 #define FOLLOW_DIRS        24   /* headings, 15 degrees apart; 0 is +X, counter-clockwise */
 #define FOLLOW_PROGRESS_STEPS 2048 /* the pen must get a quarter of this far on in this many steps */
 #define FOLLOW_TURN        96   /* the steering's error, notches x steps, that turns the heading a notch */
+#define FOLLOW_KEY_PASSES  200  /* main-loop passes the follow key must be held (protocol.c follow_key) */
+#define FOLLOW_KEY_LOST    400  /* the key's lost steps and gate before any F: 5 mm and 3.5 mm at 80 steps/mm */
+#define FOLLOW_KEY_GATE    280
 #define FOLLOW_MAX_GATE    16383 /* steps: the home gate's largest half width (<< 1 stays within 16 bits) */
 
 /* follow_tick's answer: a step (axis and sign) or why the mode stopped. */

@@ -539,18 +539,14 @@ uint8_t planner_dwell(uint16_t ms)
 }
 
 #ifdef FOLLOW
-/* F: the heading, the lost distance, the distance and the home gate at
- * plan_arg[0..3] (the protocol checked them), the feed at PLAN_FEED (0:
+/* F: its arguments in follow_args (set at rest: nothing runs while an F
+ * is queued, and an F is queued only at rest), the feed at PLAN_FEED (0:
  * the ramp's start rate, which is also the most: follow.h).  The segment
- * carries them to follow_service, which starts the steering. */
+ * carries the feed's period; follow_service starts the steering. */
 uint8_t planner_follow(void)
 {
     uint8_t n;
     plan.kind = SEG_FOLLOW;
-    plan.dirs = (uint8_t)plan_arg[0];
-    plan.a = (int16_t)plan_arg[1];
-    plan.c = (int16_t)plan_arg[2];
-    plan.b = (int16_t)plan_arg[3];
     plan.steps = 1;                     /* never counted down: follow_next ends it */
     plan.cruise = 0;
     plan.exit = 0;

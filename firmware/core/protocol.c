@@ -524,6 +524,10 @@ static uint8_t run_command(void)
         if (arg_mag[0] >= FOLLOW_DIRS || !arg_mag[1] || arg_mag[3] > FOLLOW_MAX_GATE) return E_RANGE;
         if (nargs == 4) arg_mag[PLAN_FEED] = 0;
         if (planner_busy()) return E_BUSY;
+        follow_args.heading = (uint8_t)arg_mag[0];
+        follow_args.lost_steps = arg_mag[1];
+        follow_args.max_steps = arg_mag[2];
+        follow_args.home_steps = arg_mag[3];
         return planner_follow();
     }
 #endif
@@ -660,6 +664,35 @@ static void receive_byte(uint8_t c)
     }
 }
 
+#ifdef FOLLOW
+/* The follow key (the seed's mode key, in an image without the keypad):
+ * held for FOLLOW_KEY_PASSES main-loop passes, so that a contact's bounce
+ * is no press, it starts a follow where the board stands at rest, as F
+ * would: with the last F's heading, lost steps, distance and gate
+ * (follow_args), at the most feed; before any F, heading 0 with
+ * FOLLOW_KEY_LOST and FOLLOW_KEY_GATE.  Once a press: held on, it starts
+ * nothing more. */
+static uint8_t key_passes;
+
+static void follow_key(void)
+{
+    if (!HAL_FOLLOW_KEY()) {
+        key_passes = 0;
+        return;
+    }
+    if (key_passes == FOLLOW_KEY_PASSES || ++key_passes != FOLLOW_KEY_PASSES)
+        return;
+    if (alarm_code || planner_busy())
+        return;
+    if (!follow_args.lost_steps) {          /* no F since reset (XRAM starts cleared) */
+        follow_args.lost_steps = FOLLOW_KEY_LOST;
+        follow_args.home_steps = FOLLOW_KEY_GATE;
+    }
+    plan_arg[PLAN_FEED] = 0;
+    planner_follow();
+}
+#endif
+
 void protocol_poll(void)
 {
     uint8_t c;
@@ -702,5 +735,6 @@ void protocol_poll(void)
     }
 #ifdef FOLLOW
     follow_service();
+    follow_key();
 #endif
 }

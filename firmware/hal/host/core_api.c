@@ -18,7 +18,7 @@ uint8_t host_port;
 uint8_t host_port2;
 uint8_t host_key = 0xFF, host_limits, host_estop;
 uint8_t host_seg[8];
-uint8_t host_sensors;
+uint8_t host_sensors, host_follow_key;
 
 /* An HD44780 as far as the firmware uses it: set-address commands and data
  * bytes into two 16-character lines (other commands: clear on 0x01). */
@@ -86,8 +86,9 @@ void core_reset(void)
 #ifdef FOLLOW
     follow_next = FOLLOW_IDLE;
     follow_state = FOLLOW_STATE_NONE;
+    memset(&follow_args, 0, sizeof follow_args);   /* the chip's startup clears its XRAM */
 #endif
-    host_sensors = 0;
+    host_sensors = host_follow_key = 0;
     stepper_init();
 #ifdef PANEL
     host_key = 0xFF;
@@ -266,6 +267,7 @@ int core_follow_tick(int black) { return follow_tick((uint8_t)black); }
  * board sets the sensors where its pen is and answers the step interrupt's
  * next step before each tick, as the chip's main loop does between them. */
 void core_set_sensors(int black) { host_sensors = (uint8_t)(black & FOLLOW_SENSOR_MASK); }
+void core_set_follow_key(int pressed) { host_follow_key = (uint8_t)(pressed != 0); }
 void core_follow_service(void) { follow_service(); }
 int core_follow_mailbox(void) { return follow_next; }
 #endif

@@ -48,8 +48,9 @@ void host_lcd_write(uint8_t b, uint8_t rs);
 #define HAL_LCD_WRITE(b, rs) host_lcd_write((b), (rs))
 #define HAL_SEG_SHOW(i, pattern) (host_seg[i] = (pattern))
 /* Line following (FOLLOW): the sensors on black, bit i sensor i, set by the caller's sheet. */
-extern uint8_t host_sensors;
+extern uint8_t host_sensors, host_follow_key;
 #define HAL_SENSORS() host_sensors
+#define HAL_FOLLOW_KEY() host_follow_key
 #define HAL_CRITICAL_BEGIN()
 #define HAL_CRITICAL_END()
 

@@ -157,8 +157,10 @@ uint32_t mul16s(int16_t a, int16_t b);
 #define HAL_MUL16S(a, b) mul16s(a, b)
 #define HAL_SEGMENT_STARTED(s)
 /* Line following (FOLLOW; the image has no keypad, whose P2 it takes):
- * the three sensors' comparators on P2.0-P2.2, low over black. */
+ * the three sensors' comparators on P2.0-P2.2, low over black; the follow
+ * key on P2.3, to ground. */
 #define HAL_SENSORS() ((uint8_t)(~P2 & 0x07))
+#define HAL_FOLLOW_KEY() (!(P2 & 0x08))
 #define HAL_CRITICAL_BEGIN() (EA = 0)
 #define HAL_CRITICAL_END() (EA = 1)
 

@@ -156,6 +156,11 @@ class FirmwareCore:
         """The FOLLOW build's three sensors: bit i set when sensor i reads black."""
         self._lib.core_set_sensors(ctypes.c_int(black))
 
+    def set_follow_key(self, pressed: bool) -> None:
+        """The FOLLOW build's follow key (P2.3 on the board): held for 200 main-loop passes (poll) at rest,
+        it starts a follow with the last F's arguments."""
+        self._lib.core_set_follow_key(ctypes.c_int(int(pressed)))
+
     def follow_service(self) -> None:
         """The FOLLOW build's main loop, its part in a running F: decide the
         step the next step interrupt takes, from the sensors as they are now."""
