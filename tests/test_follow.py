@@ -56,7 +56,10 @@ SMOOTH = [line for line in LINES if not line.sharp]
 @pytest.mark.parametrize("place", [(0.0, 0.0), SHIFT], ids=["here", "shifted"])
 @pytest.mark.parametrize("line", SMOOTH, ids=[line.name for line in SMOOTH])
 def test_a_closed_smooth_line_is_followed_once_round_on_the_black(core, line, place, width):
-    line = shifted(line, *place)
+    once_round_on_the_black(core, shifted(line, *place), width)
+
+
+def once_round_on_the_black(core, line: Line, width: float) -> None:
     run = follow(core, Sheet([line.points], width), RING, line.start, along(line, width), SPM, CAP)
     trace = run.trace_mm(SPM)
     assert run.reason == "home"
@@ -122,12 +125,7 @@ CORNERED = [(polygon(100.0, 100.0, 12, side, ccw), width) for side in (20.0, 40.
 
 @pytest.mark.parametrize("line, width", CORNERED, ids=[f"{line.name} {width:g} mm" for line, width in CORNERED])
 def test_the_sharpest_corners_stated_are_followed_once_round_on_the_black(core, line, width):
-    line = shifted(line, *SHIFT)
-    run = follow(core, Sheet([line.points], width), RING, line.start, along(line, width), SPM, CAP)
-    trace = run.trace_mm(SPM)
-    assert run.reason == "home"
-    assert 0.98 <= path_length(trace) / line.length <= 1.15
-    assert distances(trace[::2], [line.points]).max() < width / 2
+    once_round_on_the_black(core, shifted(line, *SHIFT), width)
 
 
 TOO_SHARP = [polygon(100.0, 100.0, n, 40.0, ccw) for n in (8, 6, 5, 4, 3) for ccw in (True, False)] + \
