@@ -6,7 +6,8 @@ gcode_streamer's `follow_line` action, and `plotter follow` sending it to
 the running graph.  One graph serves the module: a ring of r12 round
 (100, 100) drawn 7 mm wide, the pen on its right-hand side at power-on, so
 that the machine's origin is the sheet's (112, 100) and the ring's centre
-is at machine X-12 Y0."""
+is at machine X-12 Y0; the streamer's work area starts at X-50 Y-50 to
+hold it."""
 from __future__ import annotations
 
 import math
@@ -45,7 +46,8 @@ def graph(tmp_path_factory):
     sheet = tmp / "circle.gcode"
     sheet.write_text(CIRCLE)
     domain = new_domain()
-    g = PlotterGraph(domain, tmp, board_args=("-p", f"sheet:={sheet}", "-p", "sheet_start:=112,100"))
+    g = PlotterGraph(domain, tmp, board_args=("-p", f"sheet:={sheet}", "-p", "sheet_start:=112,100"),
+                     streamer_args=("-p", "x_min:=-50.0", "-p", "y_min:=-50.0"))
     g.probe = Probe(domain)
     g.states, g.lock = [], threading.Lock()
     g.env = dict(os.environ, ROS_DOMAIN_ID=str(domain), ROS_AUTOMATIC_DISCOVERY_RANGE="LOCALHOST")
@@ -163,6 +165,19 @@ def test_plotter_follow_on_the_running_graph_stops_at_the_distance_or_where_the_
     # The first step may still see the black the pen stands beside: 4 mm of white is 320 steps, give or take one.
     assert re.search(r"follow: lost after 3(19|20|21) steps \(4\.\d mm\), pen at X4\d\.\d+ Y40\.000 mm", r.stderr), \
         r.stderr
+
+
+def test_a_follow_that_leaves_the_work_area_is_stopped_at_its_edge(graph):
+    # White all the way from X195 along +X: lost only after 8 mm, past the area's edge at X200.
+    r = plotter(graph, "follow", "--start", "195", "40", "--lost", "8")
+    assert r.returncode == 1, r.stdout + r.stderr
+    m = re.search(r"follow: the pen left the work area \(X -50\.\.200 mm, Y -50\.\.200 mm\) "
+                  r"at X(\d+\.\d+) Y40\.000 mm; stopped after (\d+) steps", r.stderr)
+    assert m, r.stderr
+    # Positions come ten a second, 0.3 mm apart at 3.1 mm/s; a busy machine may take a few periods more.
+    assert 200.0 < float(m.group(1)) <= 201.5
+    x_end = read_trace(graph.trace)[-1][1] / SPM                  # machine mm: the trace counts from the origin
+    assert 200.0 < x_end < 202.0 and int(m.group(2)) < 8 * SPM
 
 
 def test_a_bad_follow_goal_is_refused_with_every_reason_and_nothing_moves(graph):

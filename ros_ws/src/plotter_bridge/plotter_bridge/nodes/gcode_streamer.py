@@ -320,9 +320,9 @@ class GCodeStreamer(Node):
         req = goal_handle.request
         where = "where the pen is" if req.from_here else f"X{req.start_x_mm:g} Y{req.start_y_mm:g}"
         name = f"follow from {where}"
-        track = FollowTrack()
+        track, edge = FollowTrack(), []
         out = await self._run_in_turn(goal_handle, name, goal_handle,
-                                      lambda: self.run_follow(req, goal_handle, track))
+                                      lambda: self.run_follow(req, goal_handle, track, edge))
         result = FollowLine.Result()
         result.x_mm, result.y_mm = out.xy if out.xy is not None else self._position.xy
         result.job_id, result.message = out.job_id, out.message
@@ -330,6 +330,8 @@ class GCodeStreamer(Node):
             state, steps = out.follow
             track.end(steps, (result.x_mm, result.y_mm))
             result.reason = follow_state_name(state)
+            if edge:
+                result.reason, result.message = "limit", f"{edge[0]}; stopped after {steps} steps"
             result.success = out.success and result.reason in FINISHED
             if out.success:
                 result.message = (f"{result.reason} after {steps} steps ({track.length_mm:.1f} mm), pen at "
@@ -338,6 +340,8 @@ class GCodeStreamer(Node):
                     self.get_logger().info(f"{name}: {result.message}")
                 else:
                     self._refused(name, result.message)
+        elif edge:
+            result.reason, result.message = "limit", edge[0]
         else:
             result.reason = "canceled" if out.canceled else "not run"
         result.steps, result.length_mm = track.steps, track.length_mm
@@ -349,8 +353,9 @@ class GCodeStreamer(Node):
             goal_handle.abort()
         return result
 
-    def run_follow(self, req, goal_handle, track: FollowTrack) -> Outcome:
-        """A follow_line goal as a job: the pen up to the start, then the board's F (on the worker thread)."""
+    def run_follow(self, req, goal_handle, track: FollowTrack, edge: List[str]) -> Outcome:
+        """A follow_line goal as a job: the pen up to the start, then the board's F (on the worker thread).
+        The board steers where the line goes: a pen reported beyond the work area stops it (why in edge)."""
         board = self._board_state()
         why = board_refusal(board)
         if why:
@@ -379,8 +384,12 @@ class GCodeStreamer(Node):
         if problems:
             return Outcome(False, "; ".join(problems))
 
+        area = self.config.area
+
         def publish(fb) -> None:
             track.add(fb.follow_state, fb.followed_steps, (fb.x_mm, fb.y_mm))
+            if track.began and not edge and not area.contains(fb.x_mm, fb.y_mm):
+                edge.append(f"the pen left the work area ({area.describe()}) at X{fb.x_mm:.3f} Y{fb.y_mm:.3f} mm")
             goal_handle.publish_feedback(FollowLine.Feedback(steps=track.steps, length_mm=track.length_mm,
                                                              sensors=fb.sensors, x_mm=fb.x_mm, y_mm=fb.y_mm))
         if texts:
@@ -394,7 +403,8 @@ class GCodeStreamer(Node):
                 return Outcome(False, "canceled at the start", 0, moved.job_id, canceled=True)
             board = self._board_state() or board
         # A follow stopped part-way is not finished by sending its F again: the start gate would move.
-        return self._stream(self._record("follow", [command], [1], board), goal_handle, publish, resumable=False)
+        return self._stream(self._record("follow", [command], [1], board), goal_handle, publish, resumable=False,
+                            stop=lambda: bool(edge))
 
     def run(self, text: str, name: str, goal_handle, resume: str = "", dialect: str = "") -> Outcome:
         """Run one program, or resume a journalled job (on the worker thread:
@@ -489,9 +499,10 @@ class GCodeStreamer(Node):
             time.sleep(0.2)
 
     def _stream(self, record: JobRecord, goal_handle, publish: Optional[Callable[[object], None]] = None,
-                resumable: bool = True) -> Outcome:
-        """Stream a journalled job through the bridge; publish(the bridge's feedback) as it runs.  A job
-        stopped part-way says how to finish it if it is resumable."""
+                resumable: bool = True, stop: Callable[[], bool] = lambda: False) -> Outcome:
+        """Stream a journalled job through the bridge; publish(the bridge's feedback) as it runs; cancel it
+        as the goal's cancel does once stop() is true.  A job stopped part-way says how to finish it if it is
+        resumable."""
         job_id = record.job_id
         self.journal.create(record)
         total_lines = max(record.lines, default=0)
@@ -534,7 +545,7 @@ class GCodeStreamer(Node):
             if not self.context.ok():               # the node is stopping; the bridge draws on
                 return Outcome(False, f"the streamer stopped; the bridge goes on with the job: plotter resume "
                                       f"{job_id} finishes it or reports it done", 0, job_id)
-            if goal_handle is not None and goal_handle.is_cancel_requested:
+            if (goal_handle is not None and goal_handle.is_cancel_requested) or stop():
                 inner.cancel_goal_async()
                 _wait(res_future, 10.0)
                 break
