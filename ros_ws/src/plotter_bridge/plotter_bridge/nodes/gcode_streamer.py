@@ -307,12 +307,7 @@ class GCodeStreamer(Node):
         result.success, result.message, result.lines_done = out.success, out.message, out.lines_done
         result.job_id = out.job_id
         result.x_mm, result.y_mm = out.xy if out.xy is not None else self._position.xy
-        if goal_handle.is_cancel_requested and not out.success:
-            goal_handle.canceled()
-        elif out.success:
-            goal_handle.succeed()
-        else:
-            goal_handle.abort()
+        end_goal(goal_handle, out.success)
         return result
 
     # --- follow_line -----------------------------------------------------------
@@ -345,12 +340,7 @@ class GCodeStreamer(Node):
         else:
             result.reason = "canceled" if out.canceled else "not run"
         result.steps, result.length_mm = track.steps, track.length_mm
-        if goal_handle.is_cancel_requested and not result.success:
-            goal_handle.canceled()
-        elif result.success:
-            goal_handle.succeed()
-        else:
-            goal_handle.abort()
+        end_goal(goal_handle, result.success)
         return result
 
     def run_follow(self, req, goal_handle, track: FollowTrack, edge: List[str]) -> Outcome:
@@ -586,6 +576,16 @@ class GCodeStreamer(Node):
     def destroy_node(self) -> None:
         self._worker.shutdown()
         super().destroy_node()
+
+
+def end_goal(goal_handle, success: bool) -> None:
+    """The goal's end state: canceled if a cancel was asked and it did not succeed."""
+    if goal_handle.is_cancel_requested and not success:
+        goal_handle.canceled()
+    elif success:
+        goal_handle.succeed()
+    else:
+        goal_handle.abort()
 
 
 def board_refusal(board: Optional[BoardState]) -> Optional[str]:
