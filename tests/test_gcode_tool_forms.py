@@ -22,7 +22,7 @@ from plotter_bridge.gcode.limits import WorkArea  # noqa: E402
 from plotter_bridge.gcode.parser import MAX_ERRORS, check_program, moves_of, parse_program  # noqa: E402
 from plotter_bridge.gcode.tokens import decode_program  # noqa: E402
 from plotter_bridge.gcode.types import (Dwell, GCodeError, GCodeErrors, Move, Pause, PenChange,  # noqa: E402
-                                        ZMove)
+                                        ToolChange, ZMove)
 
 
 def read(text: str, dialect: str = "linuxcnc", **kw):
@@ -110,10 +110,11 @@ def test_modal_words_of_cam_headers_are_notes_everywhere(dialect):
         assert any(text.startswith(words) for _, text in said), (words, said)
 
 
-def test_tool_change_lifts_the_pen_and_goes_on():
+def test_tool_change_lifts_the_pen_and_waits_for_the_next_one():
     items = read("G21 F100\nM3\nG1 X1\nT2 M6\nG1 X2\n").items
     assert [i.pen for i in items if isinstance(i, PenChange)] == ["down", "up"]
     assert [m.pen for m in moves_of(items)] == ["down", "up"]
+    assert [(i.line, i.tool) for i in items if isinstance(i, ToolChange)] == [(4, 2)]
 
 
 def test_m1_pauses_as_m0_and_m4_draws_as_m3():

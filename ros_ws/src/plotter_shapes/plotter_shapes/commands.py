@@ -20,7 +20,7 @@ from plotter_bridge.cli.command import EXIT_BAD_PROGRAM, Command
 from plotter_bridge.cli.run import connection_args, run_goal_on_graph, run_program_text
 
 from plotter_shapes.geometry import ShapeError, build_shape, figure_to_gcode
-from plotter_shapes.svg_input import Placement, VectorError, svg_program
+from plotter_shapes.svg_input import Placement, VectorError, parse_layer_order, svg_program
 from plotter_shapes.text_input import DEFAULT_FONT, text_program
 
 DEFAULT_FEED = 1500.0      # mm/min for shapes drawn without --feed
@@ -105,6 +105,10 @@ def _run_drawing(make_program, name: str, args: argparse.Namespace) -> int:
 
 def _configure_svg(p: argparse.ArgumentParser) -> None:
     p.add_argument("file", metavar="FILE.svg", help="vector drawing to plot")
+    p.add_argument("--layers", metavar="N,N,...", default="",
+                   help="draw only these layers, in this order (numbered from 1 in the file: its Inkscape layers, "
+                        "or else its stroke colours); by default every layer in file order, with a pen change "
+                        "between two")
     _drawing_args(p, "drawing")
 
 
@@ -113,7 +117,8 @@ def run_svg(args: argparse.Namespace) -> int:
         sys.stderr.write(f"{args.file}: no such file\n")
         return EXIT_BAD_PROGRAM
     placement = Placement(args.width, (args.x, args.y))
-    return _run_drawing(lambda: svg_program(args.file, placement, args.feed, args.optimize), args.file, args)
+    return _run_drawing(lambda: svg_program(args.file, placement, args.feed, args.optimize,
+                                            parse_layer_order(args.layers) if args.layers else None), args.file, args)
 
 
 _SVG = Command("svg", "plot an SVG drawing (circles and arcs as arcs, curves as arcs fitted within 0.01 mm)",

@@ -14,6 +14,15 @@ fit the streamer applies to chords): each arc passes through points of the
 curve and strays from it by less than a step, so a curve goes to the board
 as a few arcs, not hundreds of chords its 9600-baud link cannot feed.
 
+A drawing in several pens keeps its layers (read_layers): Inkscape's layers
+(top-level groups with inkscape:groupmode="layer", as vpype's
+read_multilayer_svg reads them), or else one layer per stroke colour (vpype's
+read_svg_by_attributes on "stroke", equal colours together).  Each layer is
+drawn whole, optimised within itself, and between two layers the program
+has a pen change, ``T<k> M6 (layer <k> "<name>" #rrggbb)``: the job waits
+there with the pen up for the next pen (plotter_bridge/gcode/pens.py).  All
+layers are placed together, as one drawing.
+
 Coordinates here are millimetres in the plotter's frame (+y away from the
 operator, where SVG's +y points down); vpype's documents are in CSS pixels
 (96 per inch) until scaled.
@@ -61,6 +70,18 @@ class Drawing:
     circles: Tuple[Circle, ...] = ()
 
 
+@dataclass(frozen=True)
+class Layer:
+    """One pen's part of a drawing: its number in the file (from 1), name and colour (#rrggbb or "")."""
+    number: int
+    name: str
+    colour: str
+    drawing: Drawing
+
+    def describe(self) -> str:
+        return f"{self.number} {self.name!r}" + (f" {self.colour}" if self.colour else "")
+
+
 # --- reading ------------------------------------------------------------------------------
 
 def svg_circles(path: str) -> List[Circle]:
@@ -88,6 +109,62 @@ def read_svg(path: str) -> Drawing:
     return Drawing(tuple(np.asarray(line) for line in lc), tuple(svg_circles(path)))
 
 
+def _colour(metadata: dict) -> str:
+    color = metadata.get("vp_color")
+    return f"#{color.red:02x}{color.green:02x}{color.blue:02x}" if color is not None else ""
+
+
+def read_layers(path: str) -> List[Layer]:
+    """The file's layers in file order: its Inkscape layers, or else its stroke colours (one layer
+    when it has a single colour)."""
+    import vpype as vp
+    circles = tuple(svg_circles(path))
+    try:
+        doc = vp.read_multilayer_svg(path, quantization=QUANTIZATION_PX, crop=False)
+        layers = [lc for lc in doc.layers.values() if not lc.is_empty()]
+        if len(layers) > 1 and any(lc.metadata.get("svg_inkscape_groupmode") == "layer" for lc in layers):
+            return [Layer(k, str(lc.metadata.get("vp_name") or f"layer {k}"), _colour(lc.metadata),
+                          Drawing(tuple(np.asarray(line) for line in lc), circles))
+                    for k, lc in enumerate(layers, start=1)]
+        by_stroke = vp.read_svg_by_attributes(path, ["stroke"], quantization=QUANTIZATION_PX, crop=False)
+    except Exception as exc:  # svgelements/xml errors: a file that is not an SVG drawing
+        raise VectorError(f"{path}: cannot read as SVG: {exc}") from exc
+    colours: dict = {}
+    names: dict = {}
+    for lc in by_stroke.layers.values():
+        colour = _colour(lc.metadata)
+        colours.setdefault(colour, []).extend(np.asarray(line) for line in lc)
+        names.setdefault(colour, str(lc.metadata.get("svg_stroke") or colour or "no colour"))
+    if len(colours) <= 1:
+        return [Layer(1, "drawing", next(iter(colours), ""), read_svg(path))]
+    return [Layer(k, names[colour], colour, Drawing(tuple(lines), circles))
+            for k, (colour, lines) in enumerate(colours.items(), start=1)]
+
+
+def order_layers(layers: Sequence[Layer], order: Optional[Sequence[int]]) -> List[Layer]:
+    """The layers to draw: all in file order, or those numbered in `order`, in that order."""
+    if not order:
+        return list(layers)
+    by_number = {layer.number: layer for layer in layers}
+    bad = [f"{n} is not a layer" for n in order if n not in by_number]
+    bad += [f"{n} is given twice" for k, n in enumerate(order) if n in order[:k]]
+    if bad:
+        raise VectorError(f"layers {','.join(map(str, order))}: {'; '.join(dict.fromkeys(bad))} (the file's layers: "
+                          f"{', '.join(layer.describe() for layer in layers)})")
+    return [by_number[n] for n in order]
+
+
+def parse_layer_order(text: str) -> List[int]:
+    """--layers 2,1: layer numbers, in the order to draw them."""
+    try:
+        numbers = [int(part) for part in text.split(",") if part.strip()]
+    except ValueError:
+        raise VectorError(f"--layers {text!r}: give layer numbers separated by commas, e.g. 2,1") from None
+    if not numbers:
+        raise VectorError(f"--layers {text!r}: no layer numbers")
+    return numbers
+
+
 # --- scaling, placing, merging, sorting (vpype) ------------------------------------------------
 
 def _transform(d: Drawing, scale: float, offset: complex) -> Drawing:
@@ -103,7 +180,13 @@ def _transform(d: Drawing, scale: float, offset: complex) -> Drawing:
 
 def place(d: Drawing, placement: Placement, units_per_mm: float) -> Drawing:
     """In mm, width placement.width (or natural size), bounding box centred on placement.centre."""
-    lines = [line for line in d.lines if len(line) >= 2]
+    scale, offset = placing(d.lines, placement, units_per_mm)
+    return _transform(Drawing(tuple(line for line in d.lines if len(line) >= 2), d.circles), scale, offset)
+
+
+def placing(all_lines: Sequence[np.ndarray], placement: Placement, units_per_mm: float) -> Tuple[float, complex]:
+    """The scale and offset that place these polylines (place)."""
+    lines = [line for line in all_lines if len(line) >= 2]
     if not lines:
         raise VectorError("the drawing has no paths")
     pts = np.concatenate(lines)
@@ -116,7 +199,7 @@ def place(d: Drawing, placement: Placement, units_per_mm: float) -> Drawing:
             raise VectorError("the drawing has no width to scale")
     scale = (placement.width / (x1 - x0)) if placement.width is not None else 1.0 / units_per_mm
     mid = complex((x0 + x1) / 2 * scale, -(y0 + y1) / 2 * scale)
-    return _transform(Drawing(tuple(lines), d.circles), scale, complex(*placement.centre) - mid)
+    return scale, complex(*placement.centre) - mid
 
 
 def optimize(d: Drawing) -> Drawing:
@@ -240,10 +323,38 @@ def drawing_program(d: Drawing, placement: Placement, units_per_mm: float, feed:
     return figure_to_gcode(to_figure(placed, name), feed, name)
 
 
+def layers_program(layers: Sequence[Layer], placement: Placement, units_per_mm: float, feed: float,
+                   name: str, optimize_paths: bool = False, whole: Sequence[Layer] = ()) -> List[str]:
+    """G-code for layers placed as the drawing of all of `whole` (default: these layers) is placed,
+    so that some of its layers land where they are in the whole; each optimised within itself,
+    with a pen change (T<k> M6 and a comment naming the layer) before every layer after the first."""
+    from plotter_shapes.geometry import figure_to_gcode
+    whole = whole or layers
+    if len(whole) == 1:
+        return drawing_program(layers[0].drawing, placement, units_per_mm, feed, name, optimize_paths)
+    scale, offset = placing([line for layer in whole for line in layer.drawing.lines], placement, units_per_mm)
+    out: List[str] = []
+    for k, layer in enumerate(layers, start=1):
+        placed = _transform(Drawing(tuple(line for line in layer.drawing.lines if len(line) >= 2),
+                                    layer.drawing.circles), scale, offset)
+        if optimize_paths:
+            placed = optimize(placed)
+        program = figure_to_gcode(to_figure(placed, name), feed, name)
+        body = program[program.index("G21 G90") + 1:-2]          # its strokes, without header and M5 M2
+        if k == 1:
+            out += program[:program.index("G21 G90") + 1]
+        else:
+            label = "".join(ch for ch in layer.name if ch.isprintable() and ch not in "()")[:60]
+            out += ["M5", f"T{k} M6 (layer {layer.number} \"{label}\"{' ' + layer.colour if layer.colour else ''})"]
+        out += body
+    return out + ["M5", "M2"]
+
+
 def svg_program(path: str, placement: Placement = Placement(), feed: float = 1500.0,
-                optimize_paths: bool = False) -> List[str]:
-    """G-code that draws an SVG file."""
-    return drawing_program(read_svg(path), placement, PX_PER_MM, feed, path, optimize_paths)
+                optimize_paths: bool = False, order: Optional[Sequence[int]] = None) -> List[str]:
+    """G-code that draws an SVG file, layer by layer with pen changes between (read_layers)."""
+    layers = read_layers(path)
+    return layers_program(order_layers(layers, order), placement, PX_PER_MM, feed, path, optimize_paths, layers)
 
 
 def sheet_lines(path: str) -> List[List[Tuple[float, float]]]:

@@ -22,7 +22,8 @@ from plotter_bridge.gcode.limits import WorkArea
 from plotter_bridge.gcode.parser import (DEFAULT_RAPID_RATE, GCodeError, Item, Move, check_program,
                                          decode_program)
 from plotter_bridge.gcode.steps import round_step, to_steps
-from plotter_bridge.gcode.types import GCodeErrors, Dwell, Note, Pause, PenChange, ZMove, all_errors
+from plotter_bridge.gcode.pens import change_label
+from plotter_bridge.gcode.types import GCodeErrors, Dwell, Note, Pause, PenChange, ToolChange, ZMove, all_errors
 from plotter_bridge.motion.kinematics import DEFAULT_Z_STEPS_PER_MM
 
 from .command import EXIT_BAD_PROGRAM, EXIT_OK, Command
@@ -146,6 +147,8 @@ def _print_table(items: List[Item], steps_per_mm: float, out: TextIO,
             out.write(f"{item.line:>5} {'':>5}  pen {item.pen}\n")
         elif isinstance(item, Pause):
             out.write(f"{item.line:>5} {'':>5}  pause (M0/M1)\n")
+        elif isinstance(item, ToolChange):
+            out.write(f"{item.line:>5} {'':>5}  pen change (M6): {change_label(item)}\n")
 
 
 def _summary(path: str, items: List[Item], notes: int = 0) -> str:
@@ -159,9 +162,11 @@ def _summary(path: str, items: List[Item], notes: int = 0) -> str:
     ys = [0.0] + [m.y for m in moves]
     arcs = sum(1 for m in moves if m.kind == "arc")
     rapids = sum(1 for m in moves if m.rapid)
+    changes = sum(1 for i in items if isinstance(i, ToolChange))
     return (f"{path}: OK, {len(moves)} moves ({rapids} rapid, "
             f"{len(moves) - rapids - arcs} lines, {arcs} arcs"
-            + (f", {len(z_moves)} Z moves" if z_moves else "") + f"); drawn {drawn:.1f} mm, "
+            + (f", {len(z_moves)} Z moves" if z_moves else "")
+            + (f", {changes} pen change{'s' if changes != 1 else ''}" if changes else "") + f"); drawn {drawn:.1f} mm, "
             f"travel {travel:.1f} mm, about {seconds:.0f} s at the programmed feeds; "
             f"end points within X {min(xs):.2f}..{max(xs):.2f}, "
             f"Y {min(ys):.2f}..{max(ys):.2f} mm"

@@ -38,7 +38,7 @@ HANGING_AREA = (0.0, 800.0, 0.0, 1000.0)   # seed 003's board below its pulleys,
 EXIT_INTERRUPTED = 130       # Ctrl-C: the job was cancelled
 # Options of a graph of the command's own: a running plotter has its settings in its nodes' parameters.
 LOCAL_ONLY = ("baud", "steps_per_mm", "trace", "faults", "seq_log", "journal", "area", "z_axis", "no_fit_arcs",
-              "z_steps_per_mm", "z_range", "arc_tolerance")
+              "z_steps_per_mm", "z_range", "arc_tolerance", "park")
 
 
 def connection_args(p: argparse.ArgumentParser) -> None:
@@ -82,6 +82,12 @@ def connection_args(p: argparse.ArgumentParser) -> None:
     p.add_argument("--arc-tolerance", type=float, default=None, metavar="MM",
                    help="with --port/--mock: how far the fitted arcs and lines may stray from the chords "
                         "(the streamer's arc_tolerance; default 0.02)")
+    p.add_argument("--park", type=float, nargs=2, metavar=("X", "Y"), default=None,
+                   help="with --port/--mock: where the pen waits, lifted, at a pen change (M6 once something is "
+                        "drawn, or between an SVG's layers; default 0 0)")
+    p.add_argument("--no-pen-wait", action="store_true",
+                   help="at a pen change go on at once (one pen for every layer); by default the command says "
+                        "which pen comes next and waits for Enter or plotter resume")
     p.add_argument("--quiet", action="store_true", help="no progress bar")
     p.add_argument("--svg", metavar="OUT.svg", default="",
                    help="write a picture of what the board drew, the programmed path underneath")
@@ -113,7 +119,8 @@ def _graph_options(args: argparse.Namespace):
                         z_axis=args.z_axis, z_steps_per_mm=z_steps_per_mm,
                         z_range=tuple(args.z_range) if args.z_range else None,
                         fit_arcs=not args.no_fit_arcs,
-                        arc_tolerance=0.02 if args.arc_tolerance is None else args.arc_tolerance)
+                        arc_tolerance=0.02 if args.arc_tolerance is None else args.arc_tolerance,
+                        park=tuple(args.park) if args.park else (0.0, 0.0))
 
 
 def reliability_report(graph) -> str:
@@ -151,6 +158,15 @@ class StateRecorder:
         """Where the pen is before the program (mm); (0, 0) if the bridge says nothing."""
         self.first.wait(timeout)
         return self.samples[-1][:2] if self.samples else (0.0, 0.0)
+
+
+def watch_pen_changes(node, args: argparse.Namespace, err: TextIO, go_on, give_up=None) -> None:
+    """Say at each pen change which pen comes next and go on when the user says (cli/pens.py)."""
+    from plotter_bridge.nodes.qos import latched
+    from plotter_interfaces.msg import BoardState
+    from .pens import PenPrompt, read_enter
+    prompt = PenPrompt(err, go_on, None if getattr(args, "no_pen_wait", False) else read_enter(sys.stdin), give_up)
+    node.create_subscription(BoardState, "state", prompt.on_state, latched())
 
 
 def write_pictures(args: argparse.Namespace, text: str, name: str, start: tuple,
@@ -221,6 +237,8 @@ def run_program_text(text: str, name: str, args: argparse.Namespace,
         bar = None if args.quiet else ProgressDisplay(name, err, err.isatty())
         with LocalGraph(options) as graph:
             recorder = StateRecorder(graph.client_node) if pictures else None
+            watch_pen_changes(graph.client_node, args, err, graph.bridge.session.continue_job,
+                              lambda: graph.bridge.session.cancel(graph.bridge.session.job, timeout=0))
             start = recorder.start() if recorder else (0.0, 0.0)
             try:
                 result = graph.run_program(text, name, progress=bar, resume=resume_id)
@@ -277,6 +295,7 @@ def run_goal_on_graph(args: argparse.Namespace, name: str, action_type, action: 
     display = None if args.quiet else ProgressDisplay(name, err, err.isatty())
     with GraphClient(args.namespace) as client:
         recorder = StateRecorder(client.node) if (svg_out or png_out) else None
+        watch_pen_changes(client.node, args, err, lambda: client.trigger("resume"))
         try:
             start = recorder.start() if recorder else (0.0, 0.0)
             outcome = client.run_goal(action_type, action, goal, display or (lambda fb: None))

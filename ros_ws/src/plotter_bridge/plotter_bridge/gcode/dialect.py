@@ -32,8 +32,10 @@ laser at power 0 burns).
 In every dialect: G40 (cutter compensation off), G49 (tool length offset
 off), G54 (the only coordinate system), G61/G64 (path control), G80 (canned
 cycles off), G91.1 (arc centres incremental, the only way), T (tool
-select) and M7/M8/M9 (coolant) are notes.  M6 (tool change) lifts the pen
-and is a note: the plotter has one pen, and the job goes on.  M1 (optional
+select: the pen the next M6 asks for) and M7/M8/M9 (coolant) are notes.
+M6 (tool change) lifts the pen; once something is drawn it is a pen change
+(the job waits, with the pen parked, for the operator to put in the next
+pen and resume), before that a note.  M1 (optional
 stop) is M0.  G28/G30 go home: with the pen up, to the given point and then
 to the origin (X0 Y0 of the machine: where the board was powered on or
 set_origin or the homing cycle put it).  The homing cycle (seeking the
@@ -104,7 +106,7 @@ _COMMON_REFUSED_G = {
        for code in (550, 560, 570, 580, 590)},
 }
 _COOLANT = {7: "M7 mist coolant: no effect", 8: "M8 flood coolant: no effect", 9: "M9 coolant off: no effect"}
-_COMMON_NOTED_LETTERS = {"T": "tool select: no effect, the plotter has one pen"}
+_COMMON_NOTED_LETTERS = {"T": "tool select: the pen the next M6 (a pen change) asks for"}
 _LINUXCNC_NOTED_G = {**_COMMON_NOTED_G, 430: "G43 tool length offset: no effect, a pen has no length offset",
                      980: "G98 canned cycles retract to the Z they started at",
                      990: "G99 canned cycles retract to R"}

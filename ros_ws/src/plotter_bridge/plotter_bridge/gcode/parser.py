@@ -15,8 +15,10 @@ The subset (case-insensitive; one block per physical line):
   the dialect's.
 - F feed (units per minute, modal; in the units in force after the line's
   G20/G21, and kept as a speed when the units change later); M3 pen down, M5
-  pen up, M0/M1 pause, M6 tool change (pen up, a note: one pen), M2/M30 end of
-  program (the rest of the file is not read).
+  pen up, M0/M1 pause, M6 tool change (pen up; once something is drawn a
+  pen change, ToolChange: the job waits for the next pen, which the T word
+  and the line's comment name; before, a note), M2/M30 end of program (the
+  rest of the file is not read).
 - Z is the pen: after a Z word the pen is down when Z <= pen_up_z (0 unless
   set) and up when Z > pen_up_z (Z is absolute in G90 and added to the last
   Z, 0 at power-on, in G91). A line
@@ -58,12 +60,12 @@ from typing import Tuple, Dict, List, Optional
 from . import geometry
 from .dialect import MAX_SERVO_ANGLE, GCodeOptions, dialect_hint, m_code_reason
 from .types import (PEN_DOWN, PEN_UP, Dwell, GCodeError, GCodeErrors, Item, Move, Note, Pause,
-                    PenChange, ZMove)
+                    PenChange, ToolChange, ZMove)
 from .limits import WorkArea, check_limits, limit_errors
 from .steps import StepMove, to_steps
 from .tokens import Word, decode_program, tokenize_line
 
-__all__ = ["GCodeError", "GCodeErrors", "Move", "ZMove", "Dwell", "PenChange", "Pause", "Note", "Item",
+__all__ = ["GCodeError", "GCodeErrors", "Move", "ZMove", "Dwell", "PenChange", "Pause", "ToolChange", "Note", "Item",
            "WorkArea", "StepMove", "GCodeOptions", "Program", "check_limits", "to_steps", "parse", "parse_program",
            "check_program", "decode_program", "load_program", "moves_of", "DEFAULT_RAPID_RATE"]
 
@@ -89,7 +91,8 @@ _DIALECT_G_GROUPS = {430: "tool length offset", 810: _MOTION, 820: _MOTION, 980:
 _DRILL = (810, 820)
 _M_CODES = frozenset((0, 1, 2, 3, 4, 5, 6, 30))
 _HOME = (280, 300)           # G28, G30: go home
-_TOOL_CHANGE_NOTE = "M6 tool change: the plotter has one pen; the pen is lifted and the job goes on"
+_TOOL_CHANGE_NOTE = ("M6 tool change before anything is drawn: the pen in the holder is the first; "
+                     "the pen is lifted and the job goes on")
 
 
 @dataclass
@@ -116,6 +119,8 @@ class _State:
     cycle_z: Optional[float] = None  # G81/G82: the hole's bottom and its R plane (program units x mm/unit)
     cycle_r: Optional[float] = None
     cycle_return: int = 980      # G98: back to the Z the cycle started at; G99: to R
+    tool: int = 0                # the last T word: the pen an M6 puts in
+    comment: str = ""            # the comment of the line being read
     items: List[Item] = field(default_factory=list)
     notes: List[Note] = field(default_factory=list)
 
@@ -224,6 +229,8 @@ def _split_words(words: List[Word], line: int, st: _State):
         if letter == "T" and m_code == 280:
             continue                       # Makelangelo's "M280 P0 S90 T50": the servo's move time
         value = others.pop(letter)
+        if letter == "T":
+            st.tool = int(value) if value == int(value) and 0 <= value <= 99 else st.tool
         if not (letter == "T" and m_code == 6):   # "T1 M6": the tool change's note says it
             # Values only where they say something: an E on every line is one note, repeated.
             st.notes.append(Note(line, f"T{value:g} {why}" if letter == "T" else f"{letter} word: {why}"))
@@ -382,8 +389,11 @@ def _pen_words(st: _State, m_code: Optional[int], o: Dict[str, float], nonmodal:
         on = st.spindle_on and (st.power is None or st.power > 0.0)
         _set_pen(st, PEN_DOWN if on else PEN_UP, line)
     if m_code == 6:
-        st.notes.append(Note(line, _TOOL_CHANGE_NOTE))
         _set_pen(st, PEN_UP, line)
+        if any(isinstance(i, Move) and i.pen == PEN_DOWN and not i.rapid for i in st.items):
+            st.items.append(ToolChange(line, st.tool, st.comment))
+        else:
+            st.notes.append(Note(line, _TOOL_CHANGE_NOTE))
 
 
 def _dwell(st: _State, o: Dict[str, float], line: int) -> Dwell:
@@ -632,6 +642,7 @@ def _read(text: str, rapid_rate: float, start: Tuple[float, float], z_axis: bool
             if tokens.note:
                 st.notes.append(Note(number, tokens.note))
             blank = blank and not tokens.words and not tokens.note
+            st.comment = tokens.comment
             ends = bool(tokens.words) and _execute(st, tokens.words, number, rapid_rate)
             if tokens.message:
                 st.notes.append(Note(number, f"message {tokens.message!r}: shown here, not on the board"))

@@ -48,6 +48,7 @@ class TokenLine:
     words: List[Word] = field(default_factory=list)
     note: Optional[str] = None
     message: str = ""
+    comment: str = ""          # the line's first comment, stripped (an M6's says which pen comes next)
 
 
 def _bad_character(ch: str) -> str:
@@ -91,6 +92,7 @@ def tokenize_line(text: str, line: int, options: GCodeOptions = GCodeOptions()) 
         if ch in " \t":
             i += 1
         elif ch == ";":
+            out.comment = out.comment or text[i + 1:].strip()
             break
         elif ch == "(":
             close = text.find(")", i + 1)
@@ -98,6 +100,7 @@ def tokenize_line(text: str, line: int, options: GCodeOptions = GCodeOptions()) 
                 raise GCodeError(line, "unclosed comment: '(' without ')'")
             if "(" in text[i + 1:close]:
                 raise GCodeError(line, "nested comment: '(' inside a comment")
+            out.comment = out.comment or text[i + 1:close].strip()
             i = close + 1
         elif ch == ")":
             raise GCodeError(line, "')' without a comment to close")

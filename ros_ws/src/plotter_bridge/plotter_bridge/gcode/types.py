@@ -119,6 +119,18 @@ class Pause:
 
 
 @dataclass(frozen=True)
+class ToolChange:
+    """M6 after something was drawn: the job stops with the pen up for the
+    operator to put in the next pen (tool ``tool``, the T word in force), and
+    goes on when told.  ``label`` is the line's comment, which says which pen
+    or layer comes next (``plotter svg`` writes ``(layer 2 "red" #ff0000)``)."""
+
+    line: int
+    tool: int
+    label: str = ""
+
+
+@dataclass(frozen=True)
 class Note:
     """A line the dialect accepts without acting on it (M8 coolant, G54 the
     only coordinate system, ...): ``plotter check`` lists these."""
@@ -130,4 +142,4 @@ class Note:
         return f"line {self.line}: note: {self.text}"
 
 
-Item = Union[Move, ZMove, Dwell, PenChange, Pause]
+Item = Union[Move, ZMove, Dwell, PenChange, Pause, ToolChange]

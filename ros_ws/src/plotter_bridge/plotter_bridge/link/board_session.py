@@ -28,6 +28,12 @@ things go wrong:
   it runs to its end whatever its client does (stalls, loses the network,
   dies).  Only cancel(), an e-stop or reset, a board alarm or reset, or the
   port away longer than `reconnect_timeout` end it early.
+- A pen change in a job (`M6 k`, protocol.py) goes to the board as a 1 ms
+  dwell, and nothing after it is sent: once the board has done everything
+  up to it and stands idle, the job waits (`Job.pen_change`) until
+  continue_job(), with nothing moving.  Cancel, e-stop and reset end it
+  there as anywhere else; the counts go on across it as if it were one
+  command, so a journal resume finds its place.
 
 The caller runs `pump()` in a loop on one thread; everything else may be
 called from other threads.  Waits happen outside the lock.
@@ -37,10 +43,11 @@ from __future__ import annotations
 import threading
 import time
 from dataclasses import dataclass
-from typing import Callable, List, Optional
+from typing import Callable, List, Optional, Tuple
 
 from .board_link import BoardLink, Command, Port
-from .protocol import RT_ESTOP, RT_HOLD, RT_RESET, RT_RESUME, SEQ_MOD, Err, Status
+from .protocol import (PEN_CHANGE_STANDIN, RT_ESTOP, RT_HOLD, RT_RESET, RT_RESUME, SEQ_MOD, Err, Status,
+                       pen_change_number)
 
 QUEUE_SIZE = 6
 DISCONNECTED, CONNECTING, CONNECTED = "disconnected", "connecting", "connected"
@@ -79,6 +86,12 @@ class Job:
     disconnected_at: Optional[float] = None
     result: Optional[JobResult] = None
     expected_end: Optional[tuple] = None  # where the pen must be once every command ran
+    source: Tuple[List[str], List[int]] = ([], [])  # the whole job: `commands` are those submitted so far
+    pen_change: Optional[int] = None    # the job waits at this pen change (M6 k) for continue_job()
+
+    @property
+    def total(self) -> int:
+        return len(self.source[0])
 
     @property
     def first(self) -> int:
@@ -109,7 +122,7 @@ def displacement(commands: List[str]) -> Optional[tuple]:
     line follow (F) is among them, which ends where the line takes the pen."""
     x = y = 0
     for text in commands:
-        parts = text.split()
+        parts = text.split()       # (a pen change, M6 k, moves nothing)
         if parts and parts[0] == "F":
             return None
         if parts and parts[0] in ("L", "C", "A") and len(parts) >= 3:
@@ -399,12 +412,39 @@ class BoardSession:
                 return job
             if self._resync:
                 self._sync(st)
-            job = Job([self.link.submit(c, tag=ln) for c, ln in zip(commands, lines)])
+            job = Job([], source=(list(commands), list(lines)))
+            self._submit_part(job)
             moves = displacement(commands)
             if moves is not None and st.state == "Idle" and st.queue_free == QUEUE_SIZE:
                 job.expected_end = (st.x + moves[0], st.y + moves[1])
             self.job = job
             return job
+
+    def _submit_part(self, job: Job) -> None:
+        """Hand the link the job's next commands, up to and including its next pen change."""
+        texts, lines = job.source
+        k = len(job.commands)
+        while k < len(texts):
+            change = pen_change_number(texts[k])
+            job.commands.append(self.link.submit(PEN_CHANGE_STANDIN if change is not None else texts[k],
+                                                 tag=lines[k]))
+            k += 1
+            if change is not None:
+                return
+
+    def continue_job(self) -> Tuple[bool, str]:
+        """The operator has put in the next pen: the job waiting at a pen change goes on."""
+        with self.lock:
+            job = self.job
+            if job is None or job.result is not None or job.pen_change is None:
+                return False, "no job waits for a pen change"
+            change = job.pen_change
+            job.pen_change = None
+            job.status_at_last_ack = self.status_count     # done again only after a status that follows
+            self._submit_part(job)
+            self.log(f"pen change {change + 1}: the new pen is in, the job goes on")
+            self._changed()
+            return True, f"pen change {change + 1} done: the job goes on"
 
     def wait_job(self, job: Job, timeout: float) -> Optional[JobResult]:
         with self._cond:
@@ -441,14 +481,21 @@ class BoardSession:
             return
         if (link.outstanding == 0 and self.status_count > job.status_at_last_ack
                 and st.state == "Idle" and st.queue_free == QUEUE_SIZE):
+            if len(job.commands) < job.total:
+                if job.pen_change is None:
+                    job.pen_change = pen_change_number(job.source[0][len(job.commands) - 1])
+                    self.log(f"pen change {job.pen_change + 1}: the job waits, pen up, for the next pen "
+                             f"(resume goes on)")
+                    self._changed()
+                return
             if job.expected_end is not None and (st.x, st.y) != job.expected_end:
                 # Every line was acknowledged, yet the pen is elsewhere: a line damaged on
                 # the way passed the checksum and ran as something else.
                 self._finish(job, False, f"the board ended at X{st.x} Y{st.y}, not at X{job.expected_end[0]} "
                              f"Y{job.expected_end[1]}: a damaged line passed its checksum",
-                             len(job.commands), len(job.commands))
+                             job.total, job.total)
                 return
-            self._finish(job, True, "done", len(job.commands), len(job.commands))
+            self._finish(job, True, "done", job.total, job.total)
 
     def _finish(self, job: Job, success: bool, message: str, executed: int, completed: int) -> None:
         job.result = JobResult(success, message, executed, completed)

@@ -43,6 +43,7 @@ class JobRecord:
     rapid_rate: int = MAX_RATE        # steps/s for the travel of a resume
     start_z: Optional[int] = None     # Z in steps when the job began (None: the board has no Z axis)
     machine: str = ""                 # what the commands were planned for (Machine.text(); "" = not recorded)
+    pens: List[str] = field(default_factory=list)  # what each pen change ("M6 k") tells the operator
 
 
 @dataclass

@@ -22,6 +22,21 @@ MAX_RATE = 12850           # steps/s: the top of the firmware's ramp table ($I f
 MAX_ARC_RATE = 5000        # steps/s: the firmware caps an arc's feed here (core/ramp.h ARC_TOP)
 FIRMWARE_ACCEL = 100000    # steps/s^2: the firmware's ramp at divisor $0=1 ($I field A)
 
+# A pen change in a job ("M6 k": the job's k-th, from 0): not a board command.  The
+# bridge sends the board a 1 ms dwell in its place and holds the rest of the job
+# until the operator, having put in the next pen, says resume.
+PEN_CHANGE = "M6"
+PEN_CHANGE_STANDIN = "D 1"
+
+
+def pen_change_number(text: str) -> Optional[int]:
+    """k of a job's pen change "M6 k"; None for any other command."""
+    parts = text.split()
+    if len(parts) == 2 and parts[0] == PEN_CHANGE and parts[1].isdigit():
+        return int(parts[1])
+    return None
+
+
 # Real-time commands as they go on the wire.  Hold, resume and reset are a
 # pair of the same byte, acted on between lines only: one flipped bit makes
 # a line's '1' a '!' and its '8' a Ctrl-X, and a single one must not act.

@@ -16,8 +16,10 @@ from dataclasses import dataclass
 from typing import Callable, Iterable, List, Optional, Tuple
 
 from plotter_bridge.gcode.steps import StepMove, round_step
-from plotter_bridge.gcode.types import Dwell, Pause, PenChange, ZMove
-from plotter_bridge.link.protocol import FIRMWARE_ACCEL, MAX_ARC_RATE, MAX_DELTA, MAX_RATE, MIN_RATE  # noqa: F401
+from plotter_bridge.gcode.pens import change_label
+from plotter_bridge.gcode.types import Dwell, Pause, PenChange, ToolChange, ZMove
+from plotter_bridge.link.protocol import (FIRMWARE_ACCEL, MAX_ARC_RATE, MAX_DELTA, MAX_RATE, MIN_RATE,  # noqa: F401
+                                          PEN_CHANGE)
 
 
 Vec = Tuple[float, float]
@@ -25,14 +27,15 @@ Vec = Tuple[float, float]
 
 @dataclass
 class BoardCommand:
-    verb: str                      # L, C, A (motion), Z (the Z axis), P (pen), D (dwell)
-    args: Tuple[int, ...]          # dx dy [i j] for motion, dz for Z, the value for P and D
+    verb: str                      # L, C, A (motion), Z (the Z axis), P (pen), D (dwell), M6 (a pen change)
+    args: Tuple[int, ...]          # dx dy [i j] for motion, dz for Z, the value for P and D, M6's number
     line: int                      # G-code line it came from (0: none)
     steps: int = 0                 # steps the board takes for it
     rate: int = 0                  # cruise rate, steps/s (motion)
     exit_rate: int = 0             # rate to leave it at, steps/s (set by the planner)
     dir_in: Optional[Vec] = None   # unit direction of travel where it starts (motion)
     dir_out: Optional[Vec] = None  # ... and where it ends
+    note: str = ""                 # M6: the next pen, as the operator is told (gcode/pens.py change_label)
 
     @property
     def is_motion(self) -> bool:
@@ -52,10 +55,10 @@ def from_text(text: str, line: int = 0) -> BoardCommand:
     """A board command back from its text (BoardCommand.text), as a job's
     journal keeps it; ValueError for anything else."""
     parts = text.split()
-    if not parts or parts[0] not in ("L", "C", "A", "Z", "P", "D"):
+    if not parts or parts[0] not in ("L", "C", "A", "Z", "P", "D", PEN_CHANGE):
         raise ValueError(f"not a board command: {text!r}")
     verb, numbers = parts[0], [int(v) for v in parts[1:]]
-    if verb in ("P", "D"):
+    if verb in ("P", "D", PEN_CHANGE):
         return BoardCommand(verb, tuple(numbers), line)
     if verb == "Z":
         return BoardCommand(verb, (numbers[0],), line, abs(numbers[0]), *numbers[1:3])
@@ -176,6 +179,7 @@ def to_commands(items: Iterable[object], motion: MotionConverter,
     when needed."""
     out: List[BoardCommand] = []
     pen: Optional[str] = None
+    changes = 0
 
     def set_pen(want: str, line: int) -> None:
         nonlocal pen
@@ -194,6 +198,11 @@ def to_commands(items: Iterable[object], motion: MotionConverter,
         elif isinstance(item, Pause):
             # M0: the board has no operator pause; the pen comes to rest here.
             out.append(BoardCommand("D", (1,), item.line))
+        elif isinstance(item, ToolChange):
+            # the bridge holds the job here (link/board_session.py): the pen must be up first
+            set_pen("up", item.line)
+            out.append(BoardCommand(PEN_CHANGE, (changes,), item.line, note=change_label(item)))
+            changes += 1
         elif isinstance(item, ZMove):
             if z_motion is None:
                 raise ValueError(f"line {item.line}: a Z move for a machine without a Z axis")

@@ -17,8 +17,9 @@ from plotter_bridge.gcode.dialect import (DEFAULT_MARLIN_PEN_DOWN, DEFAULT_MARLI
 from plotter_bridge.gcode.arcfit import FitConfig, fit_arcs
 from plotter_bridge.gcode.parser import check_program, decode_program
 from plotter_bridge.gcode.limits import WorkArea
+from plotter_bridge.gcode.pens import park_for_changes
 from plotter_bridge.gcode.steps import MAX_OFFSET, to_steps
-from plotter_bridge.gcode.types import GCodeError, Move
+from plotter_bridge.gcode.types import GCodeError, Move, ToolChange
 from .hanging import hanging_motion
 from .kinematics import DEFAULT_Z_STEPS_PER_MM, HangingGeometry, check_z
 from .planner import BOARD_CPU, LINK_SHARE, BoardCpu, PlannerLimits, cap_for_link, plan
@@ -49,6 +50,7 @@ class StreamerConfig:
     fit_arcs: bool = True              # runs of drawn chords on a circle or a line go as one arc or line
     arc_tolerance: float = 0.02        # fit_arcs: the fitted path's greatest distance from the chords (mm)
     board_cpu: bool = True             # link_baud: also slow commands down to what the board's CPU parses
+    park: Optional[Tuple[float, float]] = (0.0, 0.0)  # where the pen waits at a pen change (None: where it is)
 
     def __post_init__(self) -> None:
         check_z(self.z_mode, self.z_steps_per_mm)
@@ -114,6 +116,12 @@ def compile_program(text: str, config: StreamerConfig,
     items = check_program(decode_program(data), config.area, rapid_rate=config.rapid_feed, start=start,
                           z_axis=z_axis, start_z=start_z_steps / config.z_steps_per_mm,
                           options=config.gcode_options()).items
+    change = next((i for i in items if isinstance(i, ToolChange)), None)
+    if change is not None and config.park is not None and config.area is not None \
+            and not config.area.contains(*config.park):
+        raise GCodeError(change.line, f"pen change: the pen would wait at the park position X{config.park[0]:g} "
+                                      f"Y{config.park[1]:g}, outside the work area")
+    items = park_for_changes(items, config.park)
     if config.fit_arcs and config.machine == "cartesian":
         # (the hanging machine's moves go as short lines whatever they were)
         items = fit_arcs(items, board_fit(config.arc_tolerance, config.area, config.motor_steps_per_mm(),

@@ -73,7 +73,7 @@ from plotter_bridge.link.follow import (FINISHED, FollowError, FollowTrack, foll
                                         follow_state_name, goal_or_defaults)
 from plotter_bridge.link.journal import (DONE, INTERRUPTED, RUNNING, Journal, JobRecord, Progress,
                                          default_journal_dir, resume_commands)
-from plotter_bridge.link.protocol import MAX_RATE
+from plotter_bridge.link.protocol import MAX_RATE, PEN_CHANGE
 from plotter_bridge.motion.commands import from_text
 from plotter_bridge.motion.compiler import MAX_PROGRAM_BYTES, StreamerConfig, compile_program
 from plotter_bridge.motion.planner import link_baud
@@ -145,6 +145,12 @@ SPECS = (
               "degrees", low=0.0, high=255.0),
     ParamSpec("marlin_pen_up", DEFAULT_MARLIN_PEN_UP, "dialect marlin: the M300 S angle that lifts the pen",
               "degrees", low=0.0, high=255.0),
+    ParamSpec("park_pen", True, "at a pen change (M6 after something is drawn, or between an SVG's layers) the "
+                                "pen waits at park_x, park_y; false: lifted where it is"),
+    ParamSpec("park_x", 0.0, "where the pen waits at a pen change, within the work area", "mm",
+              low=-COORDINATE, high=COORDINATE),
+    ParamSpec("park_y", 0.0, "where the pen waits at a pen change, within the work area", "mm",
+              low=-COORDINATE, high=COORDINATE),
     *MACHINE,
     ParamSpec("journal_dir", "", "directory of the job journal ('' = $ROS_HOME/plotter_journal)", read_only=True),
     ParamSpec("bridge_timeout", 60.0, "how long a running job waits for a serial bridge that cannot be reached "
@@ -158,7 +164,12 @@ SPECS = (
 def check_streamer(values) -> Optional[str]:
     if values["marlin_pen_down"] == values["marlin_pen_up"]:
         return f"marlin_pen_down = marlin_pen_up = {values['marlin_pen_up']:g}: the pen angles must differ"
-    return check_work_area(values) or ordered(values, (("z_min", "z_max"),)) or check_machine(values)
+    why = check_work_area(values) or ordered(values, (("z_min", "z_max"),)) or check_machine(values)
+    if why is None and values["park_pen"] and not (values["x_min"] <= values["park_x"] <= values["x_max"]
+                                                   and values["y_min"] <= values["park_y"] <= values["y_max"]):
+        why = (f"park_x, park_y = {values['park_x']:g}, {values['park_y']:g} mm is outside the work area "
+               f"X {values['x_min']:g}..{values['x_max']:g}, Y {values['y_min']:g}..{values['y_max']:g}")
+    return why
 
 
 def streamer_config(values) -> StreamerConfig:
@@ -175,7 +186,8 @@ def streamer_config(values) -> StreamerConfig:
                           dialect=str(values["dialect"]), pen_up_z=v["pen_up_z"],
                           marlin_pen_down=v["marlin_pen_down"], marlin_pen_up=v["marlin_pen_up"],
                           fit_arcs=bool(values["fit_arcs"]), arc_tolerance=float(values["arc_tolerance"]),
-                          board_cpu=bool(values["board_cpu"]))
+                          board_cpu=bool(values["board_cpu"]),
+                          park=(float(values["park_x"]), float(values["park_y"])) if values["park_pen"] else None)
 
 
 class GCodeStreamer(Node):
@@ -416,7 +428,8 @@ class GCodeStreamer(Node):
         if z_line is not None and not board.has_z:
             return Outcome(False, f"line {z_line}: a Z move, and the board reports no Z axis "
                                   f"(firmware built without ZAXIS=1)")
-        record = self._record(name, [c.text for c in commands], [c.line for c in commands], board)
+        record = self._record(name, [c.text for c in commands], [c.line for c in commands], board,
+                              [c.note for c in commands if c.verb == PEN_CHANGE])
         return self._stream(record, goal_handle, self._program_feedback(record, goal_handle))
 
     def _job_config(self, board: BoardState, dialect: str = "") -> StreamerConfig:
@@ -424,10 +437,12 @@ class GCodeStreamer(Node):
         return replace(self.config, dialect=dialect or self.config.dialect, link_seq=board.next_seq,
                        link_baud=link_baud(int(self.params["link_baud"]), board.link_baud))
 
-    def _record(self, name: str, commands: List[str], lines: List[int], board: BoardState) -> JobRecord:
+    def _record(self, name: str, commands: List[str], lines: List[int], board: BoardState,
+                pens: Optional[List[str]] = None) -> JobRecord:
         rapid = int(min(MAX_RATE, self.config.rapid_feed / 60.0 * self.config.motor_steps_per_mm()))
         return JobRecord(uuid.uuid4().hex, name, commands, lines, (board.x_steps, board.y_steps),
-                         bool(board.pen_down), rapid, board.z_steps if board.has_z else None, self.machine.text())
+                         bool(board.pen_down), rapid, board.z_steps if board.has_z else None, self.machine.text(),
+                         list(pens or []))
 
     def _program_feedback(self, record: JobRecord, goal_handle) -> Optional[Callable[[object], None]]:
         """run_program's feedback from the bridge's: the line, the share done and the time left."""
@@ -466,7 +481,7 @@ class GCodeStreamer(Node):
                                           z_at)
         new = JobRecord(uuid.uuid4().hex, f"{record.name} (resumed)", commands, lines,
                         (board.x_steps, board.y_steps), bool(board.pen_down), record.rapid_rate, z_at,
-                        record.machine)
+                        record.machine, record.pens)
         self.journal.update(job_id, Progress(completed, INTERRUPTED, progress.message, new.job_id))
         line = record.lines[completed] if completed < len(record.lines) else 0
         self.get_logger().info(f"resuming {record.name} at command {completed + 1} of "
@@ -503,6 +518,7 @@ class GCodeStreamer(Node):
         goal.commands = record.commands
         goal.lines = record.lines
         goal.machine = record.machine
+        goal.pen_changes = record.pens
         progress = Progress()
 
         # This job's own: a late feedback of an earlier job cannot touch it.

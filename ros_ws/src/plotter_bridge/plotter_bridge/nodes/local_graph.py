@@ -62,6 +62,7 @@ class GraphOptions:
     fit_arcs: bool = True          # the streamer's fit_arcs
     arc_tolerance: float = 0.02    # mm: the streamer's arc_tolerance
     sheet: Optional[Sheet] = None  # mock board: black lines under the pen (machine mm), for line following
+    park: Optional[Tuple[float, float]] = (0.0, 0.0)   # where the pen waits at a pen change (None: where it is)
 
 
 @dataclass
@@ -113,6 +114,10 @@ class LocalGraph:
         streamer_params += [Parameter("dialect", value=options.gcode.dialect),
                             *(Parameter(name, value=float(getattr(options.gcode, name)))
                               for name in ("pen_up_z", "marlin_pen_down", "marlin_pen_up"))]
+        streamer_params += [Parameter("park_pen", value=options.park is not None)]
+        if options.park is not None:
+            streamer_params += [Parameter("park_x", value=float(options.park[0])),
+                                Parameter("park_y", value=float(options.park[1]))]
         streamer_params += [Parameter("fit_arcs", value=bool(options.fit_arcs)),
                             Parameter("arc_tolerance", value=float(options.arc_tolerance))]
         if options.journal_dir:

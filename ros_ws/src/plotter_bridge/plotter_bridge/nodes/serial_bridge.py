@@ -11,7 +11,9 @@ one job at a time: a goal that comes while one runs is rejected (the
 streamer queues jobs; the bridge only runs them).  An accepted job runs to
 its end whatever its client does: only a cancel, an e-stop or reset, a
 board alarm or reset, or the port away longer than `reconnect_timeout` end
-it early (link/board_session.py).
+it early (link/board_session.py).  At a pen change in a job (`M6 k`) the
+board stands still with the pen up and `state` is PEN_CHANGE, naming the
+next pen from the goal's `pen_changes`; `resume` goes on.
 
 A port that cannot be opened is logged at ERROR at once, naming it and the
 reason, and again at each attempt (attempts come further apart, up to 10 s);
@@ -34,7 +36,7 @@ import time
 from typing import List, Optional
 
 from collections import OrderedDict
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 from geometry_msgs.msg import PointStamped
 from rclpy.action import ActionServer, CancelResponse, GoalResponse
@@ -51,7 +53,8 @@ from plotter_bridge.link.board_session import (CONNECTING, DISCONNECTED, QUEUE_S
                                                SessionConfig)
 from plotter_bridge.link.follow import follow_state_name
 from plotter_bridge.link.homing import HomingConfig, home, homing_config
-from plotter_bridge.link.protocol import Status
+from plotter_bridge.gcode.pens import label_colour
+from plotter_bridge.link.protocol import Status, pen_change_number
 from plotter_bridge.link.serial_port import open_port
 
 from .jobs import Waker
@@ -63,7 +66,8 @@ from .telemetry import MM, BridgeTelemetry
 STATE_CODES = {"Idle": BoardState.IDLE, "Run": BoardState.RUNNING,
                "Hold": BoardState.HOLD, "Alarm": BoardState.ALARM}
 STATE_NAMES = {BoardState.IDLE: "IDLE", BoardState.RUNNING: "RUNNING", BoardState.HOLD: "HOLD",
-               BoardState.ALARM: "ALARM", BoardState.DISCONNECTED: "DISCONNECTED"}
+               BoardState.ALARM: "ALARM", BoardState.DISCONNECTED: "DISCONNECTED",
+               BoardState.PEN_CHANGE: "PEN_CHANGE"}
 MAX_COMMAND_LEN = 40            # the firmware accepts 48 characters with N and checksum
 MAX_JOB_COMMANDS = 1_000_000
 IO_SWITCH_INTERVAL = 0.0002     # s; see main()
@@ -82,11 +86,22 @@ def validate_commands(commands: List[str]) -> Optional[str]:
     return None
 
 
-def validate_goal(commands: List[str], lines: List[int]) -> Optional[str]:
+def validate_goal(commands: List[str], lines: List[int], pen_changes: List[str] = ()) -> Optional[str]:
     why = validate_commands(commands)
     if why is None and lines and len(lines) != len(commands):
         why = "lines and commands differ in length"
+    if why is None:
+        for k, c in enumerate(commands):
+            change = pen_change_number(c)
+            if change is not None and pen_changes and change >= len(pen_changes):
+                why = f"command {k + 1} ({c}) is a pen change the goal's pen_changes do not name"
+                break
     return why
+
+
+def pen_label(pen_changes: List[str], change: int) -> str:
+    """What the operator is told at pen change `change` (from 0)."""
+    return pen_changes[change] if change < len(pen_changes) and pen_changes[change] else f"pen {change + 1}"
 
 
 def wait_readable(port, timeout: float) -> None:
@@ -163,6 +178,7 @@ class _Running:
     job: Job
     done: Future
     canceling: bool = False
+    pen_changes: List[str] = field(default_factory=list)
 
 
 class SerialBridge(Node):
@@ -295,11 +311,16 @@ class SerialBridge(Node):
         if job is not None and job.commands:
             s.current_line = job.line_of(job.started - 1)
             s.lines_done = job.line_of(job.started - 2) if job.started > 1 else 0
+            change = job.pen_change
+            if change is not None and state == BoardState.IDLE:
+                s.state, s.state_name = BoardState.PEN_CHANGE, STATE_NAMES[BoardState.PEN_CHANGE]
+                s.next_pen = pen_label(running.pen_changes, change)
+                s.next_pen_colour = label_colour(s.next_pen)
         return s
 
     # --- action: stream a job ------------------------------------------------
     def _on_goal(self, goal) -> GoalResponse:
-        why = validate_goal(list(goal.commands), list(goal.lines))
+        why = validate_goal(list(goal.commands), list(goal.lines), list(goal.pen_changes))
         if why is None and not self._reserve():
             why = "another job is running, or the homing cycle (the board takes one job at a time)"
         if why:
@@ -340,7 +361,7 @@ class SerialBridge(Node):
                 self.get_logger().warn(f"job {job_id[:8]} refused: {why}")
                 goal_handle.abort()
                 return result
-            running = _Running(goal_handle, job, Future())
+            running = _Running(goal_handle, job, Future(), pen_changes=list(req.pen_changes))
             self._running = running
             outcome: JobResult = await self._waker.wait(running.done)
         finally:
@@ -376,7 +397,7 @@ class SerialBridge(Node):
             running.done.set_result(job.result)
             return
         fb = StreamCommands.Feedback()
-        fb.total = len(job.commands)
+        fb.total = job.total
         fb.acknowledged, fb.executed, fb.current_line = self.session.progress(job)
         fb.x_mm, fb.y_mm = self._position_mm()
         st = self._status()
@@ -435,6 +456,11 @@ class SerialBridge(Node):
         return self._realtime("hold", response)
 
     def _srv_resume(self, request, response):
+        # At a pen change the board is idle, not held: resume is the operator's "the new pen is in".
+        if self.session.job is not None and self.session.job.pen_change is not None:
+            response.success, response.message = self.session.continue_job()
+            if response.success:
+                return response
         return self._realtime("resume", response)
 
     def _srv_reset(self, request, response):

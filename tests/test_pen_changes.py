@@ -1,0 +1,139 @@
+"""Pen changes: M6 once something is drawn stops the job, pen up and parked, until resume.
+
+From the G-code (gcode/parser.py, gcode/pens.py) through the compiler to the
+bridge's session (link/board_session.py) on the firmware core, without ROS.
+"""
+from __future__ import annotations
+
+from dataclasses import replace
+
+import pytest
+
+import gcode_testlib  # noqa: F401  (puts plotter_bridge on the path)
+from firmware_build import host_library
+from plotter_bridge.gcode.limits import WorkArea
+from plotter_bridge.gcode.parser import parse_program
+from plotter_bridge.gcode.pens import label_colour, park_for_changes
+from plotter_bridge.gcode.types import GCodeError, Move, Note, ToolChange
+from plotter_bridge.link.journal import JobRecord, resume_commands
+from plotter_bridge.link.protocol import pen_change_number
+from plotter_bridge.motion.compiler import StreamerConfig, compile_program
+from reliability_sim import SimRig
+
+TWO_PENS = ("G21 G90 F1200\nT1 M6 (layer 1 \"black\" #000000)\nG0 X10 Y10\nM3\nG1 X30\nM5\n"
+            "T2 M6 (layer 2 \"red\" #FF0000)\nG0 X10 Y20\nM3\nG1 X30\nM5\n")
+
+
+def items_of(text: str):
+    return parse_program(text).items
+
+
+# ------------------------------------------------------------ the G-code
+
+def test_m6_after_drawing_is_a_pen_change_with_its_tool_and_comment():
+    items = items_of(TWO_PENS)
+    changes = [i for i in items if isinstance(i, ToolChange)]
+    assert changes == [ToolChange(7, 2, 'layer 2 "red" #FF0000')]
+    assert label_colour(changes[0].label) == "#ff0000"
+    # the pen is up before it, and the move after it is drawn again once M3 says so
+    k = items.index(changes[0])
+    assert [m.pen for m in items[:k] if isinstance(m, Move)][-1] == "down"
+    assert all(m.pen == "up" for m in items[k:k + 2] if isinstance(m, Move))
+
+
+def test_m6_before_anything_is_drawn_is_a_note_and_the_job_goes_on():
+    program = parse_program("T1 M6\nG0 X5\nM3\nG1 X6 F100\n")
+    assert not any(isinstance(i, ToolChange) for i in program.items)
+    assert any(isinstance(n, Note) and n.text.startswith("M6 tool change") for n in program.notes)
+
+
+def test_a_semicolon_comment_names_the_pen_and_t_alone_only_selects():
+    items = items_of("G1 X1 F100 Z-1\nT3 ; blue pen #0000ff\nG1 X2\nM6 ; blue pen #0000ff\nG1 X3\n")
+    assert [i for i in items if isinstance(i, ToolChange)] == [ToolChange(4, 3, "blue pen #0000ff")]
+
+
+# ------------------------------------------------------------ parking
+
+def test_the_pen_goes_to_park_and_back_around_each_change():
+    items = items_of(TWO_PENS)
+    parked = park_for_changes(items, (0.0, 0.0))
+    k = next(i for i, item in enumerate(parked) if isinstance(item, ToolChange))
+    out, back = parked[k - 1], parked[k + 1]
+    assert (out.rapid, out.sx, out.sy, out.x, out.y) == (True, 30.0, 10.0, 0.0, 0.0)
+    assert (back.rapid, back.sx, back.sy, back.x, back.y) == (True, 0.0, 0.0, 30.0, 10.0)
+    assert park_for_changes(items, None) == list(items)
+
+
+def test_compiled_the_change_is_one_command_after_the_pen_is_lifted():
+    commands = compile_program(TWO_PENS, StreamerConfig())
+    texts = [c.text for c in commands]
+    k = next(i for i, t in enumerate(texts) if pen_change_number(t) is not None)
+    assert texts[k] == "M6 0" and commands[k].note == 'layer 2 "red" #FF0000'
+    assert "P 0" in texts[:k] and texts[:k].index("P 0") < k
+    # out to the park position (0, 0) from X30 Y10: -2400, -800 steps, and the same back
+    before, after = commands[k - 1], commands[k + 1]
+    assert before.verb == after.verb == "L"
+    assert before.args == (-2400, -800) and after.args == (2400, 800)
+    assert before.exit_rate == 0 and after.exit_rate >= 0
+
+
+def test_a_park_position_outside_the_work_area_is_refused_at_the_m6():
+    config = StreamerConfig(area=WorkArea(5, 200, 5, 200))
+    with pytest.raises(GCodeError) as exc:
+        compile_program(TWO_PENS.replace("X10", "X15"), config)
+    assert exc.value.line == 7 and "park position" in exc.value.message
+    assert compile_program(TWO_PENS.replace("X10", "X15"), replace(config, park=(5.0, 5.0)))
+
+
+# ------------------------------------------------------------ the session holds the job
+
+@pytest.fixture
+def rig():
+    r = SimRig(library=host_library())
+    r.connect()
+    yield r
+    r.close()
+
+
+def start(rig, texts):
+    job = rig.session.start_job(texts, list(range(1, len(texts) + 1)))
+    assert job.result is None, job.result
+    return job
+
+
+def test_the_job_waits_at_the_change_with_nothing_moving_until_continued(rig):
+    texts = [c.text for c in compile_program(TWO_PENS, StreamerConfig())]
+    k = texts.index("M6 0")
+    job = start(rig, texts)
+    assert rig.run_until(lambda: job.pen_change is not None, 60)
+    assert job.pen_change == 0 and job.result is None
+    assert not rig.core.pen_down and rig.core.position == (0, 0), "parked at (0, 0) with the pen up"
+    assert job.started == k + 1 and len(job.commands) == k + 1
+    steps = len(rig.port.steps)
+    rig.run_until(lambda: job.result is not None, 5.0)
+    assert job.result is None and len(rig.port.steps) == steps, "nothing moves while the pen is changed"
+    ok, message = rig.session.continue_job()
+    assert ok, message
+    assert rig.run_until(lambda: job.result is not None, 60)
+    assert job.result.success and (job.result.executed, job.result.completed) == (len(texts), len(texts))
+    assert rig.core.position == (30 * 80, 20 * 80)
+    assert rig.session.continue_job()[0] is False
+
+
+def test_a_job_canceled_at_the_change_resumes_at_the_change(rig):
+    texts = [c.text for c in compile_program(TWO_PENS, StreamerConfig())]
+    job = start(rig, texts)
+    assert rig.run_until(lambda: job.pen_change is not None, 60)
+    rig.session.cancel(job, timeout=0)
+    assert rig.run_until(lambda: job.result is not None, 10)
+    assert not job.result.success
+    k = texts.index("M6 0")
+    assert job.result.completed == k, "the change itself is not done"
+    record = JobRecord("0" * 32, "two pens", texts, list(range(1, len(texts) + 1)), (0, 0))
+    rest, _ = resume_commands(record, job.result.completed, rig.core.position, rig.core.pen_down)
+    assert rest[0] == "M6 0", "the resumed job starts with the pen change again"
+    job2 = start(rig, rest)
+    assert rig.run_until(lambda: job2.pen_change is not None, 60)
+    assert rig.session.continue_job()[0]
+    assert rig.run_until(lambda: job2.result is not None, 60) and job2.result.success
+    assert rig.core.position == (30 * 80, 20 * 80)
