@@ -114,7 +114,7 @@ def test_tool_change_lifts_the_pen_and_waits_for_the_next_one():
     items = read("G21 F100\nM3\nG1 X1\nT2 M6\nG1 X2\n").items
     assert [i.pen for i in items if isinstance(i, PenChange)] == ["down", "up"]
     assert [m.pen for m in moves_of(items)] == ["down", "up"]
-    assert [(i.line, i.tool) for i in items if isinstance(i, ToolChange)] == [(4, 2)]
+    assert [(i.line, i.tool, i.wait) for i in items if isinstance(i, ToolChange)] == [(4, 2, True)]
 
 
 def test_m1_pauses_as_m0_and_m4_draws_as_m3():

@@ -112,5 +112,5 @@ def test_a_two_colour_drawing_waits_for_the_pen_and_plotter_resume_draws_the_sec
 
 
 def _split_at_change(program):
-    k = next(i for i, line in enumerate(program) if " M6 " in f" {line} ")
+    k = next(i for i, line in enumerate(program) if line.startswith("T2 M6"))
     return program[:k], program[:2] + program[k + 1:]

@@ -32,7 +32,7 @@ def items_of(text: str):
 
 def test_m6_after_drawing_is_a_pen_change_with_its_tool_and_comment():
     items = items_of(TWO_PENS)
-    changes = [i for i in items if isinstance(i, ToolChange)]
+    changes = [i for i in items if isinstance(i, ToolChange) and i.wait]
     assert changes == [ToolChange(7, 2, 'layer 2 "red" #FF0000')]
     assert label_colour(changes[0].label) == "#ff0000"
     # the pen is up before it, and the move after it is drawn again once M3 says so
@@ -42,8 +42,10 @@ def test_m6_after_drawing_is_a_pen_change_with_its_tool_and_comment():
 
 
 def test_m6_before_anything_is_drawn_is_a_note_and_the_job_goes_on():
-    program = parse_program("T1 M6\nG0 X5\nM3\nG1 X6 F100\n")
-    assert not any(isinstance(i, ToolChange) for i in program.items)
+    program = parse_program("T1 M6 (black)\nG0 X5\nM3\nG1 X6 F100\n")
+    assert [i for i in program.items if isinstance(i, ToolChange)] == [ToolChange(1, 1, "black", wait=False)]
+    assert not [c for c in compile_program("T1 M6 (black)\nG0 X5\nM3\nG1 X6 F100\n", StreamerConfig())
+                if c.verb == "M6"], "nothing to wait for"
     assert any(isinstance(n, Note) and n.text.startswith("M6 tool change") for n in program.notes)
 
 
@@ -57,7 +59,7 @@ def test_a_semicolon_comment_names_the_pen_and_t_alone_only_selects():
 def test_the_pen_goes_to_park_and_back_around_each_change():
     items = items_of(TWO_PENS)
     parked = park_for_changes(items, (0.0, 0.0))
-    k = next(i for i, item in enumerate(parked) if isinstance(item, ToolChange))
+    k = next(i for i, item in enumerate(parked) if isinstance(item, ToolChange) and item.wait)
     out, back = parked[k - 1], parked[k + 1]
     assert (out.rapid, out.sx, out.sy, out.x, out.y) == (True, 30.0, 10.0, 0.0, 0.0)
     assert (back.rapid, back.sx, back.sy, back.x, back.y) == (True, 0.0, 0.0, 30.0, 10.0)

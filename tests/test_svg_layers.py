@@ -37,14 +37,14 @@ def colours(tmp_path):
 
 
 def changes(program):
-    return [i for i in parse_program("\n".join(program) + "\n").items if isinstance(i, ToolChange)]
+    return [i for i in parse_program("\n".join(program) + "\n").items if isinstance(i, ToolChange) and i.wait]
 
 
 def drawn_by_layer(program):
     """The drawn moves' end points of each layer (split at the pen changes), rounded to 0.1 um."""
     out, layer = [], []
     for item in parse_program("\n".join(program) + "\n").items:
-        if isinstance(item, ToolChange):
+        if isinstance(item, ToolChange) and item.wait:
             out.append(layer)
             layer = []
         elif isinstance(item, Move) and item.pen == "down" and not item.rapid:
@@ -61,6 +61,13 @@ def test_inkscape_layers_in_file_order_with_their_names():
     said = changes(program)
     assert [(c.tool, c.label) for c in said] == [(2, 'layer 2 "my layer 2" #0000ff'), (3, 'layer 3 "my layer 3"')]
     assert [len(d) > 0 for d in drawn_by_layer(program)] == [True, True, True]
+    first = [i for i in parse_program("\n".join(program) + "\n").items if isinstance(i, ToolChange)][0]
+    assert (first.label, first.wait) == ('layer 1 "my layer 1"', False), "the first pen is named, not waited for"
+
+
+def test_vpype_s_numbered_layers_keep_the_file_s_order():
+    layers = read_layers(str(VPYPE / "multilayer_by_attributes.svg"))
+    assert [(layer.name, layer.colour) for layer in layers] == [("layer 1", "#990066"), ("3", "#0000ff"), ("2", "")]
 
 
 def test_a_file_without_inkscape_layers_is_split_by_stroke_colour(colours):
@@ -104,7 +111,7 @@ def points_by_layer(program):
     """Every drawn move's two ends, as a set per layer (an optimised path may run the other way)."""
     out, layer = [], set()
     for item in parse_program("\n".join(program) + "\n").items:
-        if isinstance(item, ToolChange):
+        if isinstance(item, ToolChange) and item.wait:
             out.append(layer)
             layer = set()
         elif isinstance(item, Move) and item.pen == "down" and not item.rapid:

@@ -20,7 +20,8 @@ read_multilayer_svg reads them), or else one layer per stroke colour (vpype's
 read_svg_by_attributes on "stroke", equal colours together).  Each layer is
 drawn whole, optimised within itself, and between two layers the program
 has a pen change, ``T<k> M6 (layer <k> "<name>" #rrggbb)``: the job waits
-there with the pen up for the next pen (plotter_bridge/gcode/pens.py).  All
+there with the pen up for the next pen (plotter_bridge/gcode/pens.py).  The
+first layer's M6, before anything is drawn, only names the first pen.  All
 layers are placed together, as one drawing.
 
 Coordinates here are millimetres in the plotter's frame (+y away from the
@@ -341,11 +342,10 @@ def layers_program(layers: Sequence[Layer], placement: Placement, units_per_mm: 
             placed = optimize(placed)
         program = figure_to_gcode(to_figure(placed, name), feed, name)
         body = program[program.index("G21 G90") + 1:-2]          # its strokes, without header and M5 M2
-        if k == 1:
-            out += program[:program.index("G21 G90") + 1]
-        else:
-            label = "".join(ch for ch in layer.name if ch.isprintable() and ch not in "()")[:60]
-            out += ["M5", f"T{k} M6 (layer {layer.number} \"{label}\"{' ' + layer.colour if layer.colour else ''})"]
+        label = "".join(ch for ch in layer.name if ch.isprintable() and ch not in "()")[:60]
+        # The first layer's M6 names the pen in the holder (no stop): a preview shows its colour.
+        out += program[:program.index("G21 G90") + 1] if k == 1 else ["M5"]
+        out += [f"T{k} M6 (layer {layer.number} \"{label}\"{' ' + layer.colour if layer.colour else ''})"]
         out += body
     return out + ["M5", "M2"]
 

@@ -76,6 +76,12 @@ def _configure_check(p: argparse.ArgumentParser) -> None:
                    help="show the moves as the streamer sends them: each run of drawn chords that one arc or line "
                         "holds within MM as that arc or line (gcode/arcfit.py; the streamer fits within 0.02 mm "
                         "unless its fit_arcs is off)")
+    p.add_argument("--svg", metavar="OUT.svg", default="",
+                   help="write a preview of the plan: each pen's paths in its colour, the pen-up travel dashed, "
+                        "the lengths and the board's time (for the default board, 9600 baud) in the title")
+    p.add_argument("--png", metavar="OUT.png", default="", help="the same preview as PNG")
+    p.add_argument("--park", type=float, nargs=2, metavar=("X", "Y"), default=(0.0, 0.0),
+                   help="where the pen waits at a pen change, for the preview (default 0 0, as the streamer's)")
     dialect_args(p)
 
 
@@ -147,7 +153,7 @@ def _print_table(items: List[Item], steps_per_mm: float, out: TextIO,
             out.write(f"{item.line:>5} {'':>5}  pen {item.pen}\n")
         elif isinstance(item, Pause):
             out.write(f"{item.line:>5} {'':>5}  pause (M0/M1)\n")
-        elif isinstance(item, ToolChange):
+        elif isinstance(item, ToolChange) and item.wait:
             out.write(f"{item.line:>5} {'':>5}  pen change (M6): {change_label(item)}\n")
 
 
@@ -162,7 +168,7 @@ def _summary(path: str, items: List[Item], notes: int = 0) -> str:
     ys = [0.0] + [m.y for m in moves]
     arcs = sum(1 for m in moves if m.kind == "arc")
     rapids = sum(1 for m in moves if m.rapid)
-    changes = sum(1 for i in items if isinstance(i, ToolChange))
+    changes = sum(1 for i in items if isinstance(i, ToolChange) and i.wait)
     return (f"{path}: OK, {len(moves)} moves ({rapids} rapid, "
             f"{len(moves) - rapids - arcs} lines, {arcs} arcs"
             + (f", {len(z_moves)} Z moves" if z_moves else "")
@@ -211,6 +217,9 @@ def run_check(args: argparse.Namespace, out: TextIO = None, err: TextIO = None) 
         return EXIT_BAD_PROGRAM
     if not (args.steps_per_mm > 0 and math.isfinite(args.steps_per_mm)):
         err.write("--steps-per-mm must be a positive number\n")
+        return EXIT_BAD_PROGRAM
+    if (args.svg and not args.svg.lower().endswith(".svg")) or (args.png and not args.png.lower().endswith(".png")):
+        err.write("--svg takes an .svg file, --png a .png file\n")
         return EXIT_BAD_PROGRAM
     if not (args.rapid_rate > 0 and math.isfinite(args.rapid_rate)):
         err.write("--rapid-rate must be a positive number\n")
@@ -263,6 +272,33 @@ def run_check(args: argparse.Namespace, out: TextIO = None, err: TextIO = None) 
         return EXIT_OK
     _print_table(items, args.steps_per_mm, out, args.z_steps_per_mm)
     out.write(_summary(args.file, items, len(program.notes)) + fitted + "\n")
+    if args.svg or args.png:
+        return write_plan(args, decode_program(data), area, options, out, err)
+    return EXIT_OK
+
+
+def write_plan(args: argparse.Namespace, text: str, area, options: GCodeOptions, out: TextIO, err: TextIO) -> int:
+    """--svg/--png: the job as the streamer would plan it for the default board, drawn, and its figures."""
+    from plotter_bridge.link.protocol import DEFAULT_BAUD
+    from plotter_bridge.motion.compiler import StreamerConfig
+    from plotter_bridge.motion.preview import preview_program
+    from .picture import Area, write_preview
+    try:
+        config = StreamerConfig(args.steps_per_mm, args.rapid_rate, area, z_mode="axis" if args.z_axis else "pen",
+                                z_steps_per_mm=args.z_steps_per_mm, dialect=options.dialect,
+                                pen_up_z=options.pen_up_z, marlin_pen_down=options.marlin_pen_down,
+                                marlin_pen_up=options.marlin_pen_up, link_baud=DEFAULT_BAUD,
+                                arc_tolerance=args.fit_arcs or 0.02, park=tuple(args.park))
+        preview = preview_program(text, config)
+    except (GCodeError, ValueError) as exc:
+        err.write(f"{args.file}: no preview: {exc}\n")
+        return EXIT_BAD_PROGRAM
+    out.write(f"{args.file}: plan: {preview.summary()}\n")
+    frame = Area(area.x_min, area.x_max, area.y_min, area.y_max) if area is not None else Area()
+    for path in (args.svg, args.png):
+        if path:
+            write_preview(path, preview, frame, title=args.file)
+            err.write(f"preview: {path}\n")
     return EXIT_OK
 
 

@@ -145,11 +145,27 @@ def draw(runs: Sequence[Run], programmed: Sequence[Polyline], area: Area = Area(
     'drawn', the travel 'travel' and the programmed path 'programmed' (the
     ids of their groups in an SVG).
     """
-    from matplotlib.figure import Figure
     from matplotlib.lines import Line2D
 
     every = [p for line in programmed for p in line] + [p for r in runs for p in r.points]
-    area = area.including(every)
+    fig, ax = _axes(every, area, title, scale_px_per_mm)
+    ax.plot(*_joined(programmed), color=PROGRAMMED_COLOUR, linewidth=4.5, solid_capstyle="round",
+            solid_joinstyle="round", gid="programmed", snap=False)
+    ax.plot(*_joined(r.points for r in runs if r.drawn), color=DRAWN_COLOUR, linewidth=1.1,
+            gid="drawn", snap=False)
+    ax.plot(*_joined(r.points for r in runs if not r.drawn), color=TRAVEL_COLOUR, linewidth=0.8,
+            linestyle=(0, (4, 3)), gid="travel", snap=False)
+    handles = [Line2D([], [], color=PROGRAMMED_COLOUR, linewidth=4.5, label="programmed"),
+               Line2D([], [], color=DRAWN_COLOUR, linewidth=1.1, label="drawn"),
+               Line2D([], [], color=TRAVEL_COLOUR, linewidth=0.8, linestyle=(0, (4, 3)), label="pen-up travel")]
+    ax.legend(handles=handles, loc="upper right", fontsize=8, framealpha=0.9)
+    return fig
+
+
+def _axes(points: Sequence[Point], area: Area, title: str, scale_px_per_mm: float = 4.0):
+    """A matplotlib Figure and its axes in mm over the area grown to hold the points."""
+    from matplotlib.figure import Figure
+    area = area.including(points)
     w_mm, h_mm = area.x_max - area.x_min, area.y_max - area.y_min
     dpi = 100.0
     margin_px = 60.0
@@ -167,15 +183,26 @@ def draw(runs: Sequence[Run], programmed: Sequence[Polyline], area: Area = Area(
     ax.set_title(title, fontsize=10)
     ax.grid(True, color="#eeeeee", linewidth=0.8)
     ax.set_axisbelow(True)
-    ax.plot(*_joined(programmed), color=PROGRAMMED_COLOUR, linewidth=4.5, solid_capstyle="round",
-            solid_joinstyle="round", gid="programmed", snap=False)
-    ax.plot(*_joined(r.points for r in runs if r.drawn), color=DRAWN_COLOUR, linewidth=1.1,
-            gid="drawn", snap=False)
-    ax.plot(*_joined(r.points for r in runs if not r.drawn), color=TRAVEL_COLOUR, linewidth=0.8,
-            linestyle=(0, (4, 3)), gid="travel", snap=False)
-    handles = [Line2D([], [], color=PROGRAMMED_COLOUR, linewidth=4.5, label="programmed"),
-               Line2D([], [], color=DRAWN_COLOUR, linewidth=1.1, label="drawn"),
-               Line2D([], [], color=TRAVEL_COLOUR, linewidth=0.8, linestyle=(0, (4, 3)), label="pen-up travel")]
+    return fig, ax
+
+
+def draw_preview(preview, area: Area = Area(), title: str = "plotter"):
+    """A matplotlib Figure of a job's plan (motion/preview.py Preview): each pen's paths in its colour
+    (gid layer-1, layer-2, ...), the pen-up travel dashed grey (gid travel), the figures in the title."""
+    from matplotlib.lines import Line2D
+    every = [p for layer in preview.layers for line in layer.lines for p in line] + \
+        [p for line in preview.travel for p in line]
+    fig, ax = _axes(every, area, f"{title}\n{preview.summary()}")
+    ax.title.set_fontsize(9)
+    ax.plot(*_joined(preview.travel), color=TRAVEL_COLOUR, linewidth=0.8, linestyle=(0, (4, 3)), gid="travel",
+            snap=False)
+    handles = []
+    for k, layer in enumerate(preview.layers, start=1):
+        ax.plot(*_joined(layer.lines), color=layer.colour, linewidth=1.3, gid=f"layer-{k}", snap=False)
+        handles.append(Line2D([], [], color=layer.colour, linewidth=1.3,
+                              label=f"{k}: {layer.name} ({layer.length_mm:.0f} mm)"))
+    handles.append(Line2D([], [], color=TRAVEL_COLOUR, linewidth=0.8, linestyle=(0, (4, 3)),
+                          label=f"pen-up travel ({preview.travel_mm:.0f} mm)"))
     ax.legend(handles=handles, loc="upper right", fontsize=8, framealpha=0.9)
     return fig
 
@@ -183,13 +210,23 @@ def draw(runs: Sequence[Run], programmed: Sequence[Polyline], area: Area = Area(
 def write_picture(path: str, runs: Sequence[Run], programmed: Sequence[Polyline],
                   area: Area = Area(), title: str = "plotter") -> None:
     """Write the picture as SVG or PNG (from the file name's suffix)."""
+    save(draw(runs, programmed, area, title), path)
+
+
+def write_preview(path: str, preview, area: Area = Area(), title: str = "plotter") -> None:
+    """Write a job's preview (draw_preview) as SVG or PNG."""
+    save(draw_preview(preview, area, title), path)
+
+
+def save(fig, path: str) -> None:
+    """A figure as SVG or PNG (from the file name's suffix), the same file for the same input."""
     from matplotlib import rc_context
     fmt = picture_format(path)
     Path(path).parent.mkdir(parents=True, exist_ok=True)
     metadata = {"Date": None} if fmt == "svg" else {"Software": "plotter"}
     # Same input, same file: fixed ids in the SVG, text kept as text; every point kept.
     with rc_context({"svg.hashsalt": "plotter", "svg.fonttype": "none", "path.simplify": False}):
-        draw(runs, programmed, area, title).savefig(path, format=fmt, metadata=metadata)
+        fig.savefig(path, format=fmt, metadata=metadata)
 
 
 def mm_to_pixel(fig, p: Point) -> Tuple[float, float]:

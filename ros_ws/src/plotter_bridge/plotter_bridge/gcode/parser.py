@@ -390,9 +390,9 @@ def _pen_words(st: _State, m_code: Optional[int], o: Dict[str, float], nonmodal:
         _set_pen(st, PEN_DOWN if on else PEN_UP, line)
     if m_code == 6:
         _set_pen(st, PEN_UP, line)
-        if any(isinstance(i, Move) and i.pen == PEN_DOWN and not i.rapid for i in st.items):
-            st.items.append(ToolChange(line, st.tool, st.comment))
-        else:
+        drawn = any(isinstance(i, Move) and i.pen == PEN_DOWN and not i.rapid for i in st.items)
+        st.items.append(ToolChange(line, st.tool, st.comment, wait=drawn))
+        if not drawn:
             st.notes.append(Note(line, _TOOL_CHANGE_NOTE))
 
 

@@ -24,7 +24,8 @@ def park_for_changes(items: Sequence[Item], park: Optional[Tuple[float, float]])
     for item in items:
         if isinstance(item, Move):
             at, feed = (item.x, item.y), item.feed
-        if isinstance(item, ToolChange) and park is not None and at is not None and at != tuple(park):
+        if isinstance(item, ToolChange) and item.wait and park is not None and at is not None \
+                and at != tuple(park):
             px, py = float(park[0]), float(park[1])
             out.append(Move(item.line, "line", at[0], at[1], px, py, feed, PEN_UP, rapid=True))
             out.append(item)

@@ -123,11 +123,14 @@ class ToolChange:
     """M6 after something was drawn: the job stops with the pen up for the
     operator to put in the next pen (tool ``tool``, the T word in force), and
     goes on when told.  ``label`` is the line's comment, which says which pen
-    or layer comes next (``plotter svg`` writes ``(layer 2 "red" #ff0000)``)."""
+    or layer comes next (``plotter svg`` writes ``(layer 2 "red" #ff0000)``).
+    An M6 before anything is drawn names the pen already in the holder and
+    does not stop (``wait`` False): only a preview uses it."""
 
     line: int
     tool: int
     label: str = ""
+    wait: bool = True
 
 
 @dataclass(frozen=True)

@@ -199,6 +199,8 @@ def to_commands(items: Iterable[object], motion: MotionConverter,
             # M0: the board has no operator pause; the pen comes to rest here.
             out.append(BoardCommand("D", (1,), item.line))
         elif isinstance(item, ToolChange):
+            if not item.wait:
+                continue              # the pen in the holder: nothing to do
             # the bridge holds the job here (link/board_session.py): the pen must be up first
             set_pen("up", item.line)
             out.append(BoardCommand(PEN_CHANGE, (changes,), item.line, note=change_label(item)))

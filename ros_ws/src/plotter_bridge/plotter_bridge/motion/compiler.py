@@ -19,7 +19,7 @@ from plotter_bridge.gcode.parser import check_program, decode_program
 from plotter_bridge.gcode.limits import WorkArea
 from plotter_bridge.gcode.pens import park_for_changes
 from plotter_bridge.gcode.steps import MAX_OFFSET, to_steps
-from plotter_bridge.gcode.types import GCodeError, Move, ToolChange
+from plotter_bridge.gcode.types import GCodeError, Item, Move, ToolChange
 from .hanging import hanging_motion
 from .kinematics import DEFAULT_Z_STEPS_PER_MM, HangingGeometry, check_z
 from .planner import BOARD_CPU, LINK_SHARE, BoardCpu, PlannerLimits, cap_for_link, plan
@@ -105,6 +105,13 @@ def compile_program(text: str, config: StreamerConfig,
     """G-code text to board commands for a pen now at start_steps (and, with
     z_mode axis, a Z axis at start_z_steps); raises GCodeError naming the line (GCodeErrors, every
     refused line of the program at once)."""
+    return compile_job(text, config, start_steps, start_z_steps)[1]
+
+
+def compile_job(text: str, config: StreamerConfig, start_steps: Tuple[int, int] = (0, 0),
+                start_z_steps: int = 0) -> Tuple[List[Item], List[BoardCommand]]:
+    """compile_program, with the program's items as they were turned into the commands
+    (the park travel added, arcs fitted; machine mm): what a preview draws."""
     data = text.encode("utf-8", "surrogateescape") if isinstance(text, str) else text
     if len(data) > MAX_PROGRAM_BYTES:
         raise GCodeError(0, f"program too large: {len(data)} bytes (limit {MAX_PROGRAM_BYTES})")
@@ -116,7 +123,7 @@ def compile_program(text: str, config: StreamerConfig,
     items = check_program(decode_program(data), config.area, rapid_rate=config.rapid_feed, start=start,
                           z_axis=z_axis, start_z=start_z_steps / config.z_steps_per_mm,
                           options=config.gcode_options()).items
-    change = next((i for i in items if isinstance(i, ToolChange)), None)
+    change = next((i for i in items if isinstance(i, ToolChange) and i.wait), None)
     if change is not None and config.park is not None and config.area is not None \
             and not config.area.contains(*config.park):
         raise GCodeError(change.line, f"pen change: the pen would wait at the park position X{config.park[0]:g} "
@@ -136,4 +143,4 @@ def compile_program(text: str, config: StreamerConfig,
     if config.link_baud > 0:
         cap_for_link(commands, config.link_baud / 10.0, first_seq=None if config.link_seq < 0 else config.link_seq,
                      cpu=BOARD_CPU if config.board_cpu else None)
-    return plan(commands, config.limits()) if config.lookahead else commands
+    return items, plan(commands, config.limits()) if config.lookahead else commands

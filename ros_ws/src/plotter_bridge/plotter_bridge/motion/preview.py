@@ -1,0 +1,135 @@
+"""A job's plan before paper: the pen-down paths of each pen (layer), the
+pen-up travel, their lengths, and how long the board will take.
+
+The geometry is the compiled job's own (motion/compiler.py compile_job: the
+park travel at pen changes added, chords fitted to arcs), and the time is
+the planner's (motion/timing.py command_seconds on the same commands): the
+figure the job's progress then counts down.  A pen change waits for the
+operator, which no plan can time: the time is the board's, without it.
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from typing import List, Sequence, Tuple
+
+from plotter_bridge.gcode.pens import change_label, label_colour
+from plotter_bridge.gcode.polylines import Polyline, arc_points
+from plotter_bridge.gcode.types import Item, Move, ToolChange
+
+from .commands import BoardCommand
+from .compiler import StreamerConfig, compile_job
+from .timing import command_seconds
+
+PALETTE = ("#1f1f1f", "#d62728", "#1f77b4", "#2ca02c", "#9467bd", "#ff7f0e", "#8c564b", "#e377c2")
+
+
+@dataclass
+class PenLayer:
+    """What one pen draws: its name, its colour (#rrggbb), its paths (mm) and their length."""
+    name: str
+    colour: str
+    lines: List[Polyline] = field(default_factory=list)
+    length_mm: float = 0.0
+
+
+@dataclass
+class Preview:
+    layers: List[PenLayer]
+    travel: List[Polyline]
+    travel_mm: float
+    seconds: float                  # the board's time, pen changes not counted
+    commands: int
+
+    @property
+    def drawn_mm(self) -> float:
+        return sum(layer.length_mm for layer in self.layers)
+
+    @property
+    def changes(self) -> int:
+        return max(0, len(self.layers) - 1)
+
+    def summary(self) -> str:
+        pens = (f" with {len(self.layers)} pens ({self.changes} pen change{'s' if self.changes != 1 else ''}, "
+                f"not timed)" if self.changes else "")
+        return (f"drawn {self.drawn_mm:.1f} mm{pens}, pen-up travel {self.travel_mm:.1f} mm, "
+                f"{duration(self.seconds)} on the board ({self.commands} commands)")
+
+    def as_json(self) -> dict:
+        def pts(line: Polyline) -> list:
+            return [[round(x, 3), round(y, 3)] for x, y in line]
+        return {"layers": [{"name": layer.name, "colour": layer.colour, "length_mm": round(layer.length_mm, 2),
+                            "lines": [pts(line) for line in layer.lines]} for layer in self.layers],
+                "travel": [pts(line) for line in self.travel], "travel_mm": round(self.travel_mm, 2),
+                "drawn_mm": round(self.drawn_mm, 2), "seconds": round(self.seconds, 2),
+                "changes": self.changes, "summary": self.summary()}
+
+
+def duration(seconds: float) -> str:
+    """A time as people say it: 42 s, 3 min 05 s, 1 h 02 min."""
+    s = int(round(seconds))
+    if s < 60:
+        return f"{s} s"
+    if s < 3600:
+        return f"{s // 60} min {s % 60:02d} s"
+    return f"{s // 3600} h {s % 3600 // 60:02d} min"
+
+
+def _path(m: Move) -> Polyline:
+    if m.kind == "arc":
+        return arc_points(m.sx, m.sy, m.x, m.y, m.cx, m.cy, bool(m.cw))
+    return [(m.sx, m.sy), (m.x, m.y)]
+
+
+def _length(line: Polyline) -> float:
+    return sum(math.dist(a, b) for a, b in zip(line, line[1:]))
+
+
+def _layer(change: ToolChange, k: int) -> PenLayer:
+    label = change_label(change)
+    colour = label_colour(label)
+    name = label.replace(colour, "").replace(colour.upper(), "").strip() if colour else label
+    return PenLayer(name or f"pen {k + 1}", colour or PALETTE[k % len(PALETTE)])
+
+
+def preview_items(items: Sequence[Item], commands: Sequence[BoardCommand]) -> Preview:
+    """The preview of a compiled job (compile_job's items and commands)."""
+    layers: List[PenLayer] = []
+    travel: List[Polyline] = []
+    drawing = False            # the last move drew: the next drawn one may join its polyline
+    for item in items:
+        if isinstance(item, ToolChange):
+            if item.wait or not any(layer.lines for layer in layers):
+                layers = [layer for layer in layers if layer.lines]
+                layers.append(_layer(item, len(layers)))
+            drawing = False
+            continue
+        if not isinstance(item, Move):
+            continue
+        path = _path(item)
+        if item.rapid or item.pen != "down":
+            if travel and travel[-1][-1] == path[0] and not drawing:
+                travel[-1].extend(path[1:])
+            else:
+                travel.append(path)
+            drawing = False
+            continue
+        if not layers:
+            layers.append(PenLayer("pen 1", PALETTE[0]))
+        layer = layers[-1]
+        if drawing and layer.lines and layer.lines[-1][-1] == path[0]:
+            layer.lines[-1].extend(path[1:])
+        else:
+            layer.lines.append(path)
+        layer.length_mm += _length(path)
+        drawing = True
+    layers = [layer for layer in layers if layer.lines] or [PenLayer("pen 1", PALETTE[0])]
+    return Preview(layers, travel, sum(_length(line) for line in travel), sum(command_seconds(commands)),
+                   len(commands))
+
+
+def preview_program(text: str, config: StreamerConfig = StreamerConfig(),
+                    start_steps: Tuple[int, int] = (0, 0)) -> Preview:
+    """The preview of a G-code program for a pen now at start_steps; GCodeError as compile_program."""
+    items, commands = compile_job(text, config, start_steps)
+    return preview_items(items, commands)
