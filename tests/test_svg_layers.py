@@ -158,3 +158,10 @@ def test_plotter_svg_without_anyone_to_change_the_pen_stops_there_resumable(tmp_
     r = plotter_with_input(["svg", colours, "--mock", "--quiet", "--no-pen-wait"], "")
     assert r.returncode == 0, r.stderr
     assert r.stderr.count("(not waited for: --no-pen-wait)") == 2
+
+
+def test_a_file_that_is_not_an_svg_is_refused_with_its_reason(tmp_path):
+    bad = tmp_path / "garbage.svg"
+    bad.write_text("<svg this is not")
+    with pytest.raises(VectorError, match="cannot read as SVG"):
+        read_layers(str(bad))

@@ -52,7 +52,7 @@ def page(tmp_path_factory):
     work = tmp_path_factory.mktemp("web")
     graph = PlotterGraph(domain, work)
     port = free_port()
-    ui = web_ui(domain, "-p", f"port:={port}")
+    ui = web_ui(domain, "-p", f"port:={port}", "-p", f"journal_dir:={graph.journal}")
     driver = None
     try:
         wait_until(lambda: f"plotter page on http://127.0.0.1:{port}/" in ui.output(), 30, "the web server")
@@ -251,6 +251,67 @@ def test_jog_moves_the_pen_while_idle_and_never_out_of_the_area(page):
     wait_until(lambda: "outside the work area" in text(page.driver, "message"), 10, "the refusal")
     time.sleep(0.5)
     assert len(read_trace(page.trace)) == before
+
+
+TWO_PENS = ('<svg xmlns="http://www.w3.org/2000/svg" width="60mm" height="40mm" viewBox="0 0 60 40">'
+            '<rect x="5" y="5" width="30" height="30" stroke="black" fill="none"/>'
+            '<path d="M 40 10 L 55 25 M 40 25 L 55 10" stroke="red" fill="none"/></svg>')
+
+
+def test_a_two_pen_drawing_is_planned_before_run_and_waits_at_its_pen_change(page):
+    wait_until(lambda: text(page.driver, "state") == "IDLE", 30, "IDLE")
+    page.driver.find_element("id", "svg-width").clear()
+    page.driver.find_element("id", "svg-width").send_keys("60")
+    upload(page, "two-pens.svg", TWO_PENS)
+    wait_until(lambda: "fits the work area" in text(page.driver, "check-result"), 30, "the check")
+    summary = text(page.driver, "plan-summary")
+    assert re.search(r"drawn \d+\.\d mm with 2 pens \(1 pen change, not timed\), pen-up travel \d+\.\d mm, "
+                     r"\d+ (s|min \d\d s) on the board", summary), summary
+    pens = [li.text for li in page.driver.find_elements("css selector", "#pens li")]
+    assert len(pens) == 2 and '"black"' in pens[0] and '"red"' in pens[1], pens
+    colours = {line.value_of_css_property("stroke")
+               for line in page.driver.find_elements("css selector", "#preview polyline")}
+    assert colours == {"rgb(0, 0, 0)", "rgb(255, 0, 0)"}, colours
+    assert page.driver.find_elements("css selector", "#travel polyline"), "the pen-up travel is shown"
+    click_for_job(page, "run")
+    wait_until(lambda: text(page.driver, "state") == "PEN_CHANGE", 120, "the pen change")
+    assert page.driver.find_element("id", "pen-change").is_displayed()
+    assert text(page.driver, "next-pen") == 'layer 2 "red" #ff0000'
+    assert text(page.driver, "pen-state") == "up"
+    waiting = read_trace(page.trace)
+    time.sleep(1.0)
+    assert read_trace(page.trace) == waiting, "nothing moves while the pen is changed"
+    page.driver.find_element("id", "resume").click()
+    wait_job(page, "succeeded", 120)
+    assert not page.driver.find_element("id", "pen-change").is_displayed()
+    assert len(read_trace(page.trace)) > len(waiting)
+
+
+def test_a_job_stopped_half_way_is_resumed_from_the_page(page):
+    wait_until(lambda: text(page.driver, "state") == "IDLE", 30, "IDLE")
+    upload(page, "halfway.gcode", "(halfway)\nG21 G90\nG0 X20 Y60\nM3\n" + "G1 X180 Y60 F1500\nG1 X20 Y61\n" * 2
+           + "G1 X30 Y70\nM5\nM2\n")
+    wait_until(lambda: "fits" in text(page.driver, "check-result"), 30, "the check")
+    click_for_job(page, "run")
+    wait_until(lambda: text(page.driver, "state") == "RUNNING", 30, "RUNNING")
+    time.sleep(1.5)
+    page.driver.find_element("id", "cancel").click()
+    wait_job(page, "canceled", 30)
+    wait_until(lambda: text(page.driver, "state") == "IDLE", 30, "IDLE after the cancel")
+    row = "#jobs tr:first-child"
+    wait_until(lambda: "halfway" in page.driver.find_element("css selector", row).text, 15, "the job in the list")
+    assert "interrupted" in page.driver.find_element("css selector", row).text
+    button = page.driver.find_element("css selector", f"{row} .resume-job")
+    wait_until(button.is_enabled, 10, "the Resume button")
+    count = job_count(page.driver)
+    button.click()
+    wait_until(lambda: job_count(page.driver) != count, 30, "the resumed job to be sent")
+    wait_job(page, "succeeded", 180)
+    assert text(page.driver, "job-name") == "halfway (resumed)"
+    end = read_trace(page.trace)[-1]
+    assert (end[1], end[2]) == (30 * STEPS_PER_MM, 70 * STEPS_PER_MM), "finished where the program ends"
+    wait_until(lambda: "resumed as" in page.driver.find_element("css selector", "#jobs").text, 15,
+               "the list saying the job was resumed")
 
 
 def test_a_disconnected_board_is_shown_and_nothing_is_sent(tmp_path):

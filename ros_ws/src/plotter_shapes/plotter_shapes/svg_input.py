@@ -119,8 +119,8 @@ def read_layers(path: str) -> List[Layer]:
     """The file's layers in file order: its Inkscape layers, or else its stroke colours (one layer
     when it has a single colour)."""
     import vpype as vp
-    circles = tuple(svg_circles(path))
     try:
+        circles = tuple(svg_circles(path))
         doc = vp.read_multilayer_svg(path, quantization=QUANTIZATION_PX, crop=False)
         layers = [lc for lc in doc.layers.values() if not lc.is_empty()]
         if len(layers) > 1 and any(lc.metadata.get("svg_inkscape_groupmode") == "layer" for lc in layers):

@@ -65,6 +65,7 @@ class Backend(Protocol):
     async def jog(self, dx: float, dy: float) -> str: ...
     async def button(self, name: str) -> str: ...
     async def follow(self, fields: dict) -> str: ...
+    async def resume(self, job_id: str) -> str: ...
 
 
 class WebApp:
@@ -86,6 +87,7 @@ class WebApp:
             web.post("/api/jog", self._jog),
             web.post("/api/button/{name}", self._button),
             web.post("/api/follow", self._follow),
+            web.post("/api/resume", self._resume),
         ])
 
     # --- access ------------------------------------------------------------------------
@@ -189,6 +191,13 @@ class WebApp:
         if not job.ok:
             raise Refused(f"{job.name} has errors: line {job.errors[0]['line']}: {job.errors[0]['message']}", 400)
         return web.json_response({"message": await self.backend.run(job)})
+
+    async def _resume(self, request: web.Request) -> web.Response:
+        body = await self._json(request)
+        job_id = str(body.get("id", ""))
+        if not job_id:
+            raise Refused("no job id to resume", 400)
+        return web.json_response({"message": await self.backend.resume(job_id)})
 
     async def _draw(self, request: web.Request) -> web.Response:
         return web.json_response({"message": await self.backend.draw(await self._json(request))})

@@ -3,7 +3,9 @@
 An uploaded file is G-code or an SVG drawing; either becomes a G-code
 program, checked the way the streamer checks it (the parser, then the work
 area from where the pen is), with every refused line and its text, and
-a preview of its pen-down path for the page.  Jog moves and shapes are
+a preview of its pen-down path for the page, and the plan (motion/preview.py:
+each pen's paths in its colour, the pen-up travel, the lengths and the
+board's time, as the streamer with its defaults would plan it).  Jog moves and shapes are
 checked the same way.  No ROS here: the node sends what passes to the
 streamer, which checks it once more against the board.
 """
@@ -12,6 +14,7 @@ from __future__ import annotations
 import math
 import os
 import tempfile
+import time
 from dataclasses import dataclass, field
 from typing import List, Optional, Tuple
 
@@ -20,6 +23,7 @@ from plotter_bridge.gcode.limits import WorkArea
 from plotter_bridge.gcode import parser
 from plotter_bridge.gcode.parser import decode_program, program_name
 from plotter_bridge.gcode.types import GCodeError, all_errors
+from plotter_bridge.link.protocol import DEFAULT_BAUD
 
 MAX_UPLOAD = 4 * 1024 * 1024      # bytes; the streamer's own limit is the same order
 JOG_STEPS = (0.1, 1.0, 10.0)      # mm, the page's jog buttons
@@ -33,6 +37,7 @@ class Checked:
     program: str = ""                                        # G-code, "" when the file could not be read
     errors: List[dict] = field(default_factory=list)         # {"line", "message", "text"}; line 0: the file
     preview: List[List[Point]] = field(default_factory=list)  # pen-down polylines, mm
+    plan: Optional[dict] = None                               # motion/preview.py Preview.as_json()
 
     @property
     def ok(self) -> bool:
@@ -40,7 +45,8 @@ class Checked:
 
     def as_json(self) -> dict:
         return {"name": self.name, "ok": self.ok, "errors": self.errors, "lines": self.program.count("\n"),
-                "preview": [[[round(x, 3), round(y, 3)] for x, y in line] for line in self.preview]}
+                "preview": [[[round(x, 3), round(y, 3)] for x, y in line] for line in self.preview],
+                "plan": self.plan}
 
 
 def is_svg(filename: str, data: bytes) -> bool:
@@ -62,12 +68,18 @@ def svg_to_program(data: bytes, name: str, area: WorkArea, width: Optional[float
     return "\n".join([f"({name})", *[line for line in lines if not line.startswith("(")]]) + "\n"
 
 
-def check_program(text: str, name: str, area: WorkArea, start: Point) -> Checked:
-    """Parse and check a G-code program for a pen now at `start` (mm)."""
+def check_program(text: str, name: str, area: WorkArea, start: Point, steps_per_mm: float = 80.0,
+                  link_baud: int = DEFAULT_BAUD) -> Checked:
+    """Parse and check a G-code program for a pen now at `start` (mm), and plan it."""
+    from plotter_bridge.motion.compiler import StreamerConfig
+    from plotter_bridge.motion.preview import preview_program
     job = Checked(name, text)
     try:
         parser.check_program(text, area, start=start)
         job.preview = program_polylines(text, start)
+        config = StreamerConfig(steps_per_mm, area=area, link_baud=link_baud)
+        job.plan = preview_program(text, config, (round(start[0] * steps_per_mm),
+                                                  round(start[1] * steps_per_mm))).as_json()
     except GCodeError as exc:
         lines = text.splitlines()
         for error in all_errors(exc):
@@ -77,7 +89,7 @@ def check_program(text: str, name: str, area: WorkArea, start: Point) -> Checked
 
 
 def check_upload(filename: str, data: bytes, area: WorkArea, start: Point,
-                 width: Optional[float] = None, feed: float = 1500.0) -> Checked:
+                 width: Optional[float] = None, feed: float = 1500.0, link_baud: int = DEFAULT_BAUD) -> Checked:
     """An uploaded file, read and checked."""
     name = os.path.basename(filename or "upload")[:80] or "upload"
     if len(data) > MAX_UPLOAD:
@@ -96,7 +108,7 @@ def check_upload(filename: str, data: bytes, area: WorkArea, start: Point,
         except GCodeError as exc:
             return Checked(name, errors=[{"line": exc.line, "message": exc.message, "text": ""}])
         name = program_name(text, name)
-    return check_program(text, name, area, start)
+    return check_program(text, name, area, start, link_baud=link_baud)
 
 
 def jog_program(dx: float, dy: float) -> str:
@@ -104,3 +116,19 @@ def jog_program(dx: float, dy: float) -> str:
     if not all(math.isfinite(v) and abs(v) <= max(JOG_STEPS) for v in (dx, dy)) or (dx, dy) == (0, 0):
         raise ValueError(f"jog by ({dx}, {dy}) mm: each of X and Y at most {max(JOG_STEPS):g} mm, not both 0")
     return f"(jog)\nG21 G91\nG0 X{dx:.4f} Y{dy:.4f}\nG90\nM2\n"
+
+
+def journal_jobs(journal, limit: int) -> List[dict]:
+    """The newest `limit` jobs of a journal (link/journal.py) as the page lists them."""
+    out = []
+    for job_id, progress, mtime in journal.jobs()[:limit]:
+        try:
+            record, _ = journal.load(job_id)
+        except KeyError:
+            continue
+        out.append({"id": job_id, "name": record.name,
+                    "when": time.strftime("%Y-%m-%d %H:%M:%S", time.localtime(mtime)), "state": progress.state,
+                    "completed": progress.completed, "total": len(record.commands),
+                    "note": f"resumed as {progress.resumed_by[:8]}" if progress.resumed_by else progress.message,
+                    "resumable": progress.resumable})
+    return out

@@ -7,7 +7,13 @@ It is a client of whatever plotter runs in its namespace (default
 /plotter): it shows `state`, `ink` and `planned_path` live, sends jobs as
 `run_program` goals (files, jog moves), `draw` goals (shapes) and, for a
 board with line sensors (FOLLOW=1), `follow_line` goals, and calls
-the bridge's services (hold, resume, estop, reset, set_origin, home).  One job
+the bridge's services (hold, resume, estop, reset, set_origin, home).  A
+file is shown planned before it runs: each pen in its colour, the pen-up
+travel, the lengths and the board's time.  At a pen change the page says
+which pen comes next; Resume goes on.  The recent jobs of the streamer's
+journal (`journal_dir`, the same directory) are listed, and one that
+stopped part-way is resumed from where it stopped (a `run_program` goal
+with `resume`).  One job
 from the page at a time: a new one while it runs, or while the board is
 busy, disconnected or in alarm, is refused with the reason and nothing
 moves.  The server (app.py) runs on a thread of its own; it is bound to
@@ -28,13 +34,15 @@ from rclpy.node import Node
 from std_srvs.srv import Trigger
 
 from plotter_bridge.gcode.limits import WorkArea
+from plotter_bridge.link.journal import Journal, default_journal_dir
+from plotter_bridge.link.protocol import DEFAULT_BAUD
 from plotter_bridge.nodes.action_client import ActionClient
 from plotter_bridge.nodes.main import DEFAULT_NAMESPACE, run_node
 from plotter_bridge.nodes.params import WORK_AREA, NodeParameters, ParamSpec, check_work_area
 from plotter_bridge.nodes.qos import latched
 
 from .app import Refused, WebApp, serve, stop, token_ok
-from .jobs import Checked, check_program, check_upload, jog_program
+from .jobs import Checked, check_program, check_upload, jog_program, journal_jobs
 
 SERVER_WAIT_S = 5.0      # s a request waits for an action server it has not seen yet
 STATE_PERIOD = 0.1       # s: the page gets the board's state at most this often
@@ -51,8 +59,11 @@ SPECS = (
     ParamSpec("svg_width", 120.0, "width an uploaded SVG drawing is scaled to", "mm", low=1.0, high=10000.0),
     ParamSpec("default_feed", 1500.0, "drawing feed of uploaded SVG drawings", "mm/min", low=0.0, above=True,
               high=1e5),
+    ParamSpec("journal_dir", "", "the streamer's job journal, for the page's list of jobs ('' = "
+                                 "$ROS_HOME/plotter_journal, the streamer's default)", read_only=True),
     *WORK_AREA,
 )
+JOBS_LISTED = 10         # the newest jobs of the journal the page lists
 
 
 def check_web(values) -> Optional[str]:
@@ -96,6 +107,7 @@ class WebUi(Node):
         self._follow_client = ActionClient(self, FollowLine, "follow_line", callback_group=group)
         self._triggers = {name: self.create_client(Trigger, srv, callback_group=group)
                           for name, srv in SERVICES.items()}
+        self._journal = Journal(str(self.params["journal_dir"]) or default_journal_dir())
         token = str(self.params["token"])
         self.web = WebApp(self, token, log=None)
         host, port = str(self.params["host"]), int(self.params["port"])
@@ -126,7 +138,9 @@ class WebUi(Node):
                 "firmware": s.firmware_version,
                 # A board with line sensors (FOLLOW=1): those on black, bit i = sensor i; its follow's state.
                 "sensors": s.sensors if s.has_sensors else None,
-                "follow_state": s.follow_state_name if s.has_sensors else None}
+                "follow_state": s.follow_state_name if s.has_sensors else None,
+                # At a pen change: the pen the job waits for.
+                "next_pen": s.next_pen, "next_pen_colour": s.next_pen_colour}
 
     def _on_state(self, msg) -> None:
         self._state = msg
@@ -153,7 +167,12 @@ class WebUi(Node):
                   {"type": "planned", "points": self._planned}]
         if self._job is not None:
             events.append({"type": "job", **self._job})
+        events.append(self.jobs_event())
         return events
+
+    def jobs_event(self) -> dict:
+        """The newest jobs of the journal, each with whether it can be resumed."""
+        return {"type": "jobs", "jobs": journal_jobs(self._journal, JOBS_LISTED)}
 
     def _pen(self) -> tuple:
         s = self._state
@@ -161,9 +180,11 @@ class WebUi(Node):
 
     # --- what the page asks ------------------------------------------------------------------
     def check(self, filename: str, data: bytes, width: Optional[float]) -> Checked:
+        s = self._state
         return check_upload(filename, data, self.area(), self._pen(),
                             width if width is not None else float(self.params["svg_width"]),
-                            float(self.params["default_feed"]))
+                            float(self.params["default_feed"]),
+                            int(s.link_baud) if s is not None and s.link_baud else DEFAULT_BAUD)
 
     def _ready_for_a_job(self) -> None:
         s = self._state
@@ -183,6 +204,20 @@ class WebUi(Node):
         self._ready_for_a_job()
         return await self._send(self._run_client, self._RunProgram.Goal(program=job.program, name=job.name),
                                 job.name, "run_program", "gcode_streamer")
+
+    async def resume(self, job_id: str) -> str:
+        """Finish a journalled job from where it stopped (the streamer's resume)."""
+        listed = {j["id"]: j for j in journal_jobs(self._journal, JOBS_LISTED)}
+        job = listed.get(job_id)
+        if job is None:
+            raise Refused(f"job {job_id[:8]} is not among the page's recent jobs", 400)
+        if not job["resumable"]:
+            raise Refused(f"{job['name']}: cannot be resumed ({job['state']}"
+                          f"{': ' + job['note'] if job['note'] else ''})")
+        self._ready_for_a_job()
+        name = f"{job['name']} (resumed)"
+        return await self._send(self._run_client, self._RunProgram.Goal(name=name, resume=job_id),
+                                name, "run_program", "gcode_streamer")
 
     async def jog(self, dx: float, dy: float) -> str:
         try:
@@ -283,6 +318,7 @@ class WebUi(Node):
             followed = {"steps": int(wrapped.result.steps), "length_mm": round(float(wrapped.result.length_mm), 1)}
         self._set_job(status=status, message=message, progress=1.0 if status == "succeeded" else None,
                       seconds_left=0.0, **followed)
+        self.web.publish(self.jobs_event())
         if status != "succeeded":
             self.web.publish({"type": "message", "level": "error" if status == "aborted" else "info",
                               "text": f"{self._job['name']}: {status}: {message}"})

@@ -67,14 +67,33 @@ function setPlanned(points) {
   $("planned").setAttribute("points", pairs.join(" "));
 }
 
-function setPreview(lines) {
-  const g = $("preview");
-  g.replaceChildren();
+function polylines(g, lines, colour) {
   for (const pts of lines) {
     const p = document.createElementNS(NS, "polyline");
     p.setAttribute("points", pts.map(([x, y]) => `${x},${-y}`).join(" "));
+    if (colour) p.style.stroke = colour;
     g.appendChild(p);
   }
+}
+
+// The plan of a checked file (motion/preview.py): each pen in its colour, the pen-up travel
+// dashed, and its figures; without one, the pen-down paths.
+function setPreview(lines, plan) {
+  $("preview").replaceChildren();
+  $("travel").replaceChildren();
+  $("pens").replaceChildren();
+  $("plan-summary").textContent = plan ? plan.summary : "";
+  if (!plan) { polylines($("preview"), lines); return; }
+  plan.layers.forEach((layer, k) => {
+    polylines($("preview"), layer.lines, layer.colour);
+    const li = document.createElement("li");
+    const swatch = document.createElement("span");
+    swatch.className = "swatch";
+    swatch.style.background = layer.colour;
+    li.append(swatch, ` ${k + 1}: ${layer.name}, ${layer.length_mm.toFixed(0)} mm`);
+    $("pens").appendChild(li);
+  });
+  polylines($("travel"), plan.travel);
 }
 
 // --- state and job ------------------------------------------------------------------
@@ -89,6 +108,11 @@ function setState(s) {
     const pen = $("pen");
     pen.setAttribute("cx", s.x_mm); pen.setAttribute("cy", -s.y_mm);
     pen.setAttribute("class", s.pen_down ? "down" : "");
+  }
+  $("pen-change").hidden = s.state !== "PEN_CHANGE";
+  if (s.state === "PEN_CHANGE") {
+    $("next-pen").textContent = s.next_pen;
+    $("next-pen-swatch").style.background = s.next_pen_colour || "transparent";
   }
   const sensors = s.sensors !== undefined && s.sensors !== null;
   $("follow-box").hidden = !sensors;
@@ -124,6 +148,34 @@ function setJob(j) {
   enable();
 }
 
+// The journal's recent jobs, each with a Resume button when it stopped part-way.
+let jobs = [];
+function setJobs(list) {
+  jobs = list;
+  const body = $("jobs").tBodies[0];
+  body.replaceChildren();
+  for (const j of list) {
+    const tr = document.createElement("tr");
+    tr.dataset.id = j.id;
+    for (const t of [j.name, j.when.slice(5), `${j.completed}/${j.total}`, j.note ? `${j.state}: ${j.note}` : j.state]) {
+      const td = document.createElement("td");
+      td.textContent = t;
+      tr.appendChild(td);
+    }
+    const td = document.createElement("td");
+    if (j.resumable) {
+      const b = document.createElement("button");
+      b.textContent = "Resume";
+      b.className = "resume-job";
+      b.addEventListener("click", () => click("api/resume", { id: j.id }).catch(() => {}));
+      td.appendChild(b);
+    }
+    tr.appendChild(td);
+    body.appendChild(tr);
+  }
+  enable();
+}
+
 function busy() { return job && (job.status === "running" || job.status === "sending"); }
 
 function enable() {
@@ -132,6 +184,7 @@ function enable() {
   $("cancel").disabled = !busy();
   $("follow").disabled = !idle;
   $("run").disabled = !checkedId;
+  for (const b of document.querySelectorAll(".resume-job")) b.disabled = !idle;
 }
 
 // --- events ------------------------------------------------------------------------------
@@ -149,6 +202,7 @@ function connect() {
     else if (e.type === "ink") setInk(e.points);
     else if (e.type === "planned") setPlanned(e.points);
     else if (e.type === "job") setJob(e);
+    else if (e.type === "jobs") setJobs(e.jobs);
     else if (e.type === "message") show(e.text, e.level === "error");
   };
 }
@@ -159,18 +213,18 @@ async function check() {
   checkedId = null;
   $("errors").replaceChildren();
   $("check-result").textContent = "";
-  setPreview([]);
+  setPreview([], null);
   enable();
   if (!file) { show("choose a G-code or SVG file first", true); return; }
   const form = new FormData();
   form.append("file", file);
   form.append("width", $("svg-width").value);
   const r = await api("api/check", form);
-  setPreview(r.preview);
+  setPreview(r.preview, r.plan);
   if (r.ok) {
     checkedId = r.id;
     $("check-result").textContent = `${r.name}: ${r.lines} lines, fits the work area`;
-    show(`${r.name} checked: press Run`, false);
+    show(`${r.name} checked: see its plan, then press Run`, false);
   } else {
     for (const e of r.errors) {
       const li = document.createElement("li");
