@@ -314,6 +314,32 @@ def test_a_job_stopped_half_way_is_resumed_from_the_page(page):
                "the list saying the job was resumed")
 
 
+def test_the_page_picks_one_of_several_plotters_in_the_domain(page, tmp_path):
+    from selenium.webdriver.support.ui import Select
+    wait_until(lambda: text(page.driver, "state") == "IDLE", 30, "IDLE")
+    second = PlotterGraph(page.domain, tmp_path, namespace="/second")
+    try:
+        picker = page.driver.find_element("id", "plotter")
+        wait_until(lambda: picker.is_displayed() and len(Select(picker).options) == 2, 30, "the picker")
+        assert [o.text for o in Select(picker).options] == ["/plotter", "/second"]
+        first_steps = len(read_trace(page.trace))
+        Select(picker).select_by_visible_text("/second")
+        wait_until(lambda: "now driving the plotter in /second" in text(page.driver, "message"), 15, "the pick")
+        wait_until(lambda: text(page.driver, "state") == "IDLE", 60, "the second plotter's state")
+        Select(page.driver.find_element("id", "jog-step")).select_by_visible_text("10")
+        button = page.driver.find_element("css selector", ".jog[data-dx='1']")
+        wait_until(button.is_enabled, 10, "the jog buttons")
+        button.click()
+        wait_until(lambda: text(page.driver, "x") == "10.000", 60, "the second plotter's pen at X10")
+        assert read_trace(second.trace)[-1][1:] == (10 * STEPS_PER_MM, 0), "the second board moved"
+        assert len(read_trace(page.trace)) == first_steps, "the first did not"
+        Select(picker).select_by_visible_text("/plotter")
+        wait_until(lambda: "now driving the plotter in /plotter" in text(page.driver, "message"), 15, "back")
+    finally:
+        codes = second.close()
+    assert all(c == 0 for c in codes), codes
+
+
 def test_a_disconnected_board_is_shown_and_nothing_is_sent(tmp_path):
     domain = new_domain()
     bridge = NodeProcess("plotter_bridge.nodes.serial_bridge", domain,

@@ -66,6 +66,7 @@ class Backend(Protocol):
     async def button(self, name: str) -> str: ...
     async def follow(self, fields: dict) -> str: ...
     async def resume(self, job_id: str) -> str: ...
+    async def pick(self, namespace: str) -> str: ...
 
 
 class WebApp:
@@ -88,6 +89,7 @@ class WebApp:
             web.post("/api/button/{name}", self._button),
             web.post("/api/follow", self._follow),
             web.post("/api/resume", self._resume),
+            web.post("/api/plotter", self._plotter),
         ])
 
     # --- access ------------------------------------------------------------------------
@@ -198,6 +200,13 @@ class WebApp:
         if not job_id:
             raise Refused("no job id to resume", 400)
         return web.json_response({"message": await self.backend.resume(job_id)})
+
+    async def _plotter(self, request: web.Request) -> web.Response:
+        body = await self._json(request)
+        namespace = str(body.get("namespace", ""))
+        if not namespace.startswith("/"):
+            raise Refused(f"namespace {namespace!r}: give an absolute namespace, e.g. /plotter", 400)
+        return web.json_response({"message": await self.backend.pick(namespace)})
 
     async def _draw(self, request: web.Request) -> web.Response:
         return web.json_response({"message": await self.backend.draw(await self._json(request))})

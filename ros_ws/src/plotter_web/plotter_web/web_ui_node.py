@@ -13,7 +13,8 @@ travel, the lengths and the board's time.  At a pen change the page says
 which pen comes next; Resume goes on.  The recent jobs of the streamer's
 journal (`journal_dir`, the same directory) are listed, and one that
 stopped part-way is resumed from where it stopped (a `run_program` goal
-with `resume`).  One job
+with `resume`).  When several plotters run in the domain (a serial bridge
+in each namespace), the page lists them and drives the one picked.  One job
 from the page at a time: a new one while it runs, or while the board is
 busy, disconnected or in alarm, is refused with the reason and nothing
 moves.  The server (app.py) runs on a thread of its own; it is bound to
@@ -64,6 +65,7 @@ SPECS = (
     *WORK_AREA,
 )
 JOBS_LISTED = 10         # the newest jobs of the journal the page lists
+PLOTTERS_PERIOD = 2.0    # s between looks for the plotters (serial bridges) of the domain
 
 
 def check_web(values) -> Optional[str]:
@@ -83,10 +85,8 @@ def check_web(values) -> Optional[str]:
 class WebUi(Node):
     def __init__(self, *, namespace: str = DEFAULT_NAMESPACE, **kwargs) -> None:
         super().__init__("web_ui", namespace=namespace, **kwargs)
-        from nav_msgs.msg import Path
         from plotter_interfaces.action import DrawShape, FollowLine, RunProgram
         from plotter_interfaces.msg import BoardState
-        from visualization_msgs.msg import Marker
         self.params = NodeParameters(self, SPECS, cross=check_web)
         self._RunProgram, self._DrawShape, self._FollowLine = RunProgram, DrawShape, FollowLine
         self._disconnected, self._idle = BoardState.DISCONNECTED, BoardState.IDLE
@@ -99,14 +99,14 @@ class WebUi(Node):
         self._job: Optional[dict] = None          # the page's job: name, status, progress...
         self._handle = None
         self._lock = threading.Lock()
-        self.create_subscription(BoardState, "state", self._on_state, latched(), callback_group=group)
-        self.create_subscription(Marker, "ink", self._on_ink, latched(), callback_group=group)
-        self.create_subscription(Path, "planned_path", self._on_planned, latched(), callback_group=group)
-        self._run_client = ActionClient(self, RunProgram, "run_program", callback_group=group)
-        self._draw_client = ActionClient(self, DrawShape, "draw", callback_group=group)
-        self._follow_client = ActionClient(self, FollowLine, "follow_line", callback_group=group)
-        self._triggers = {name: self.create_client(Trigger, srv, callback_group=group)
-                          for name, srv in SERVICES.items()}
+        self._group = group
+        self._target = ""                         # the plotter's namespace the page drives
+        self._target_subs: list = []
+        self._target_actions: list = []
+        self._target_services: list = []
+        self._connect(self.get_namespace())
+        self._plotters: List[str] = []
+        self.create_timer(PLOTTERS_PERIOD, self._look_for_plotters, callback_group=group)
         self._journal = Journal(str(self.params["journal_dir"]) or default_journal_dir())
         token = str(self.params["token"])
         self.web = WebApp(self, token, log=None)
@@ -121,6 +121,65 @@ class WebUi(Node):
         where = f"http://{host}:{port}/" + ("?token=..." if token else "")
         print(f"plotter page on {where}", flush=True)
         self.get_logger().info(f"plotter page on {where} for the plotter in {self.get_namespace()}")
+
+    # --- which plotter ------------------------------------------------------------------------
+    def _connect(self, namespace: str) -> None:
+        """Drive the plotter in `namespace`: its topics, actions and services (absolute names)."""
+        from nav_msgs.msg import Path
+        from plotter_interfaces.msg import BoardState
+        from visualization_msgs.msg import Marker
+        for sub in self._target_subs:
+            self.destroy_subscription(sub)
+        for client in self._target_actions:
+            client.destroy()                      # an action client takes itself off the node
+        for client in self._target_services:
+            self.destroy_client(client)
+        ns, group = namespace.rstrip("/"), self._group
+        self._target = ns or "/"
+        self._state, self._ink, self._planned, self._last_name = None, [], [], ""
+        self._target_subs = [self.create_subscription(BoardState, f"{ns}/state", self._on_state, latched(),
+                                               callback_group=group),
+                      self.create_subscription(Marker, f"{ns}/ink", self._on_ink, latched(), callback_group=group),
+                      self.create_subscription(Path, f"{ns}/planned_path", self._on_planned, latched(),
+                                               callback_group=group)]
+        self._run_client = ActionClient(self, self._RunProgram, f"{ns}/run_program", callback_group=group)
+        self._draw_client = ActionClient(self, self._DrawShape, f"{ns}/draw", callback_group=group)
+        self._follow_client = ActionClient(self, self._FollowLine, f"{ns}/follow_line", callback_group=group)
+        self._triggers = {name: self.create_client(Trigger, f"{ns}/{srv}", callback_group=group)
+                          for name, srv in SERVICES.items()}
+        self._target_actions = [self._run_client, self._draw_client, self._follow_client]
+        self._target_services = list(self._triggers.values())
+
+    def plotters(self) -> List[str]:
+        """The namespaces in which a serial bridge runs: the plotters of this ROS domain."""
+        found = {ns for name, ns in self.get_node_names_and_namespaces() if name == "serial_bridge"}
+        return sorted(found | {self._target})
+
+    def _look_for_plotters(self) -> None:
+        found = self.plotters()
+        if found != self._plotters:
+            self._plotters = found
+            self.web.publish(self._plotters_event())
+
+    def _plotters_event(self) -> dict:
+        return {"type": "plotters", "namespaces": self._plotters or [self._target], "current": self._target}
+
+    async def pick(self, namespace: str) -> str:
+        """Drive another plotter of the domain; not while a job of the page's runs."""
+        if namespace == self._target:
+            return f"already on {namespace}"
+        if namespace not in self.plotters():
+            raise Refused(f"no plotter (serial_bridge) in {namespace!r}: the domain has "
+                          f"{', '.join(self.plotters())}", 400)
+        job = self._job
+        if job is not None and job["status"] in ("sending", "running"):
+            raise Refused(f"busy: {job['name']!r} is running on {self._target}: wait for it or cancel it")
+        with self._lock:
+            self._connect(namespace)
+            self._job, self._handle = None, None
+        for event in self.snapshot():
+            self.web.publish(event)
+        return f"now driving the plotter in {namespace}"
 
     # --- what the plotter tells -------------------------------------------------------------
     def area(self) -> WorkArea:
@@ -161,8 +220,8 @@ class WebUi(Node):
 
     def snapshot(self) -> list:
         a = self.area()
-        events = [{"type": "config", "area": [a.x_min, a.x_max, a.y_min, a.y_max], "namespace": self.get_namespace(),
-                   "jog_steps": [0.1, 1.0, 10.0]},
+        events = [{"type": "config", "area": [a.x_min, a.x_max, a.y_min, a.y_max], "namespace": self._target,
+                   "jog_steps": [0.1, 1.0, 10.0]}, self._plotters_event(),
                   self._state_event(), {"type": "ink", "points": self._ink},
                   {"type": "planned", "points": self._planned}]
         if self._job is not None:
@@ -266,7 +325,7 @@ class WebUi(Node):
             return "cancel requested"
         client = self._triggers[name]
         if not client.service_is_ready():
-            raise Refused(f"{self.get_namespace()}/{SERVICES[name]} does not answer: is serial_bridge running?")
+            raise Refused(f"{self._target}/{SERVICES[name]} does not answer: is serial_bridge running?")
         response = await asyncio.wait_for(_wrap(client.call_async(Trigger.Request())),
                                           SERVICE_WAIT_S.get(name, 10.0))
         if not response.success:
@@ -282,7 +341,7 @@ class WebUi(Node):
                 break
             await asyncio.sleep(0.1)
         else:
-            why = f"{self.get_namespace()}/{action} does not answer: is {node} running?"
+            why = f"{self._target}/{action} does not answer: is {node} running?"
             self._set_job(status="aborted", message=why)
             raise Refused(why)
         try:

@@ -176,6 +176,14 @@ function setJobs(list) {
   enable();
 }
 
+// The plotters of the ROS domain: a picker when there are several.
+function setPlotters(namespaces, current) {
+  const picker = $("plotter");
+  picker.replaceChildren(...namespaces.map((ns) => new Option(ns, ns, ns === current, ns === current)));
+  picker.hidden = namespaces.length < 2;
+  $("namespace").hidden = !picker.hidden;
+}
+
 function busy() { return job && (job.status === "running" || job.status === "sending"); }
 
 function enable() {
@@ -203,6 +211,7 @@ function connect() {
     else if (e.type === "planned") setPlanned(e.points);
     else if (e.type === "job") setJob(e);
     else if (e.type === "jobs") setJobs(e.jobs);
+    else if (e.type === "plotters") setPlotters(e.namespaces, e.current);
     else if (e.type === "message") show(e.text, e.level === "error");
   };
 }
@@ -243,6 +252,7 @@ async function click(path, body) {
 }
 
 $("file").addEventListener("change", () => check().catch(() => {}));
+$("plotter").addEventListener("change", () => click("api/plotter", { namespace: $("plotter").value }).catch(() => {}));
 $("check").addEventListener("click", () => check().catch(() => {}));
 $("run").addEventListener("click", () => click("api/run", { id: checkedId }).catch(() => {}));
 for (const [id, name] of [["hold", "hold"], ["resume", "resume"], ["cancel", "cancel"], ["estop", "estop"],
