@@ -92,6 +92,8 @@ DRAWINGS = ["corpus/svg/shapes.svg", "corpus/svg/curves.svg", "drawings/vpype/mu
 @pytest.mark.parametrize("drawing", DRAWINGS)
 def test_the_planned_time_is_the_board_s_within_5_percent(drawing, baud):
     planned, board = board_seconds("\n".join(svg_program(str(DATA / drawing))) + "\n", baud)
+    print(f"{drawing} at {baud} baud: planned {planned:.2f} s, the board {board:.2f} s, "
+          f"{(planned - board) / board * 100:+.1f} %")
     assert board > 5.0
     assert abs(planned - board) <= 0.05 * board, (planned, board)
 

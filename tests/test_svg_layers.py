@@ -165,3 +165,16 @@ def test_a_file_that_is_not_an_svg_is_refused_with_its_reason(tmp_path):
     bad.write_text("<svg this is not")
     with pytest.raises(VectorError, match="cannot read as SVG"):
         read_layers(str(bad))
+
+
+@pytest.mark.ros
+def test_plotter_svg_preview_writes_the_plan_and_moves_nothing(tmp_path):
+    docs = Path(__file__).resolve().parent.parent / "docs"
+    r = plotter_with_input(["svg", docs / "three-pens.svg", "--width", "120", "--optimize", "--preview",
+                            tmp_path / "plan.svg"], "")
+    assert r.returncode == 0, r.stderr
+    assert "with 3 pens (2 pen changes, not timed)" in r.stdout and "on the board" in r.stdout
+    picture = (tmp_path / "plan.svg").read_text()
+    assert all(f'id="layer-{k}"' in picture for k in (1, 2, 3)) and 'id="travel"' in picture
+    r = plotter_with_input(["svg", docs / "three-pens.svg", "--preview", tmp_path / "plan.jpg"], "")
+    assert r.returncode == 2 and "a picture is .svg or .png" in r.stderr

@@ -253,35 +253,38 @@ def test_jog_moves_the_pen_while_idle_and_never_out_of_the_area(page):
     assert len(read_trace(page.trace)) == before
 
 
-TWO_PENS = ('<svg xmlns="http://www.w3.org/2000/svg" width="60mm" height="40mm" viewBox="0 0 60 40">'
-            '<rect x="5" y="5" width="30" height="30" stroke="black" fill="none"/>'
-            '<path d="M 40 10 L 55 25 M 40 25 L 55 10" stroke="red" fill="none"/></svg>')
+THREE_PENS = ('<svg xmlns="http://www.w3.org/2000/svg" width="60mm" height="40mm" viewBox="0 0 60 40">'
+              '<rect x="5" y="5" width="30" height="30" stroke="black" fill="none"/>'
+              '<path d="M 40 10 L 55 25 M 40 25 L 55 10" stroke="red" fill="none"/>'
+              '<path d="M 40 35 L 55 35" stroke="blue" fill="none"/></svg>')
 
 
-def test_a_two_pen_drawing_is_planned_before_run_and_waits_at_its_pen_change(page):
+def test_a_three_pen_drawing_is_planned_before_run_and_waits_at_each_pen_change(page):
     wait_until(lambda: text(page.driver, "state") == "IDLE", 30, "IDLE")
     page.driver.find_element("id", "svg-width").clear()
     page.driver.find_element("id", "svg-width").send_keys("60")
-    upload(page, "two-pens.svg", TWO_PENS)
+    upload(page, "three-pens.svg", THREE_PENS)
     wait_until(lambda: "fits the work area" in text(page.driver, "check-result"), 30, "the check")
     summary = text(page.driver, "plan-summary")
-    assert re.search(r"drawn \d+\.\d mm with 2 pens \(1 pen change, not timed\), pen-up travel \d+\.\d mm, "
+    assert re.search(r"drawn \d+\.\d mm with 3 pens \(2 pen changes, not timed\), pen-up travel \d+\.\d mm, "
                      r"\d+ (s|min \d\d s) on the board", summary), summary
     pens = [li.text for li in page.driver.find_elements("css selector", "#pens li")]
-    assert len(pens) == 2 and '"black"' in pens[0] and '"red"' in pens[1], pens
+    assert len(pens) == 3 and '"black"' in pens[0] and '"red"' in pens[1] and '"blue"' in pens[2], pens
     colours = {line.value_of_css_property("stroke")
                for line in page.driver.find_elements("css selector", "#preview polyline")}
-    assert colours == {"rgb(0, 0, 0)", "rgb(255, 0, 0)"}, colours
+    assert colours == {"rgb(0, 0, 0)", "rgb(255, 0, 0)", "rgb(0, 0, 255)"}, colours
     assert page.driver.find_elements("css selector", "#travel polyline"), "the pen-up travel is shown"
     click_for_job(page, "run")
-    wait_until(lambda: text(page.driver, "state") == "PEN_CHANGE", 120, "the pen change")
-    assert page.driver.find_element("id", "pen-change").is_displayed()
-    assert text(page.driver, "next-pen") == 'layer 2 "red" #ff0000'
-    assert text(page.driver, "pen-state") == "up"
-    waiting = read_trace(page.trace)
-    time.sleep(1.0)
-    assert read_trace(page.trace) == waiting, "nothing moves while the pen is changed"
-    page.driver.find_element("id", "resume").click()
+    waiting = None
+    for pen in ('layer 2 "red" #ff0000', 'layer 3 "blue" #0000ff'):
+        wait_until(lambda: text(page.driver, "state") == "PEN_CHANGE" and text(page.driver, "next-pen") == pen,
+                   120, f"the pen change to {pen}")
+        assert page.driver.find_element("id", "pen-change").is_displayed()
+        assert text(page.driver, "pen-state") == "up"
+        waiting = read_trace(page.trace)
+        time.sleep(1.0)
+        assert read_trace(page.trace) == waiting, "nothing moves while the pen is changed"
+        page.driver.find_element("id", "resume").click()
     wait_job(page, "succeeded", 120)
     assert not page.driver.find_element("id", "pen-change").is_displayed()
     assert len(read_trace(page.trace)) > len(waiting)

@@ -88,6 +88,9 @@ def _drawing_args(p: argparse.ArgumentParser, what: str) -> None:
     p.add_argument("--feed", type=float, default=DEFAULT_FEED, metavar="MM_PER_MIN",
                    help=f"drawing feed (default {DEFAULT_FEED:g})")
     p.add_argument("--gcode", metavar="OUT.gcode", default="", help="also write the program here")
+    p.add_argument("--preview", metavar="OUT.svg|OUT.png", default="",
+                   help="only write the plan (each pen in its colour, the pen-up travel, the lengths and the "
+                        "board's time, as plotter check --svg/--png) and say its figures: nothing moves")
     connection_args(p)
 
 
@@ -100,7 +103,31 @@ def _run_drawing(make_program, name: str, args: argparse.Namespace) -> int:
     text = "\n".join(lines) + "\n"
     if args.gcode:
         Path(args.gcode).write_text(text)
+    if args.preview:
+        return write_preview_of(text, name, args)
     return run_program_text(text, name, args)
+
+
+def write_preview_of(text: str, name: str, args: argparse.Namespace) -> int:
+    """--preview: the program's plan for the default board (or --area, --steps-per-mm, --park), drawn."""
+    from plotter_bridge.cli.picture import Area, picture_format, write_preview
+    from plotter_bridge.gcode.limits import WorkArea
+    from plotter_bridge.gcode.types import GCodeError
+    from plotter_bridge.link.protocol import DEFAULT_BAUD
+    from plotter_bridge.motion.compiler import StreamerConfig
+    from plotter_bridge.motion.preview import preview_program
+    area = WorkArea(*args.area) if args.area else WorkArea()
+    try:
+        picture_format(args.preview)
+        config = StreamerConfig(args.steps_per_mm or 80.0, area=area, link_baud=args.baud or DEFAULT_BAUD,
+                                park=tuple(args.park) if args.park else (0.0, 0.0))
+        preview = preview_program(text, config)
+    except (GCodeError, ValueError) as exc:
+        sys.stderr.write(f"{name}: no preview: {exc}\n")
+        return EXIT_BAD_PROGRAM
+    write_preview(args.preview, preview, Area(area.x_min, area.x_max, area.y_min, area.y_max), title=Path(name).name)
+    sys.stdout.write(f"{name}: plan: {preview.summary()}\npreview: {args.preview}\n")
+    return 0
 
 
 def _configure_svg(p: argparse.ArgumentParser) -> None:
