@@ -13,6 +13,7 @@ K_RESET, K_XP, K_CONE, K_CIRCLE = 0, 1, 2, 3
 K_DIAG, K_XN, K_DIAMOND, K_STAR = 4, 5, 6, 7
 K_FASTER, K_YP, K_NO_FUNCTION, K_CAR = 8, 9, 10, 11
 K_SLOWER, K_YN, K_PAUSE, K_CAR_REV = 12, 13, 14, 15
+NO_KEY = 0xFF                   # no key down
 
 
 def digit_key(d: int) -> int:

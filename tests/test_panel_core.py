@@ -15,18 +15,17 @@ import pytest
 
 from firmware_build import FIRMWARE, host_library
 from panel_keys import (JOG, K_CAR, K_CAR_REV, K_CIRCLE, K_CONE, K_DIAG, K_DIAMOND, K_FASTER,
-                        K_NO_FUNCTION, K_PAUSE, K_RESET, K_SLOWER, K_STAR, K_XN, K_XP, K_YN, K_YP,
+                        K_NO_FUNCTION, K_PAUSE, K_RESET, K_SLOWER, K_STAR, K_XN, K_XP, K_YN, K_YP, NO_KEY,
                         assert_on_figure, digit_key, figure_segments)
 from vcd_trace import SEGMENTS
 from plotter_bridge.sim.firmware_core import FirmwareCore
 from plotter_bridge.link.protocol import (ERROR_TEXT, RT_RESET, RT_STATUS, Banner, Err, Ok, Resend, Status,
-                                     machine_line, parse_reply)
+                                          machine_line, parse_reply)
 
 sys.path.insert(0, str(FIRMWARE / "tools"))
 import gen_figures  # noqa: E402
 
 
-NO_KEY = 0xFF
 BIT_X_DIR, BIT_Y_DIR = 0x02, 0x08           # the closed limit switches, as the direction bits
 
 

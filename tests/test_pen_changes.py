@@ -109,6 +109,7 @@ def test_the_job_waits_at_the_change_with_nothing_moving_until_continued(rig):
     job = start(rig, texts)
     assert rig.run_until(lambda: job.pen_change is not None, 60)
     assert job.pen_change == 0 and job.result is None
+    assert rig.run_until(lambda: rig.session.link.status.state == "Hold", 2), "the board is held for it"
     assert not rig.core.pen_down and rig.core.position == (0, 0), "parked at (0, 0) with the pen up"
     assert job.started == k + 1 and len(job.commands) == k + 1
     steps = len(rig.port.steps)
@@ -139,3 +140,65 @@ def test_a_job_canceled_at_the_change_resumes_at_the_change(rig):
     assert rig.session.continue_job()[0]
     assert rig.run_until(lambda: job2.result is not None, 60) and job2.result.success
     assert rig.core.position == (30 * 80, 20 * 80)
+
+
+def press_on_the_panel(rig, key: int, ms: int = 30) -> None:
+    """A key of the board's keypad held for `ms` ms, the panel ticking every millisecond."""
+    from panel_keys import NO_KEY
+    for k in (key, NO_KEY):
+        rig.core._lib.core_set_key(k)
+        for _ in range(ms):
+            rig.core.panel_tick()
+            rig.step(0.001)
+
+
+def test_the_board_s_pause_resume_key_goes_on_after_a_pen_change(rig):
+    from panel_keys import K_PAUSE
+    texts = [c.text for c in compile_program(TWO_PENS, StreamerConfig())]
+    job = start(rig, texts)
+    assert rig.run_until(lambda: job.pen_change is not None and rig.session.link.status.state == "Hold", 60)
+    rig.run_until(lambda: False, 1.0)
+    assert job.pen_change == 0, "the hold alone does not go on"
+    press_on_the_panel(rig, K_PAUSE)
+    assert rig.run_until(lambda: job.result is not None, 60)
+    assert job.result.success and rig.core.position == (30 * 80, 20 * 80)
+    assert any("resumed on the board's panel" in line for line in rig.log)
+
+
+# ------------------------------------------------------------ the plotter command's prompt
+
+def test_the_prompt_asks_once_per_change_and_goes_on_or_gives_up():
+    import io
+    import threading
+    import time
+    from plotter_bridge.cli.pens import PenPrompt, watch_session
+    went, gave_up = [], []
+    err = io.StringIO()
+    answers = iter([True, False])
+    prompt = PenPrompt(err, lambda: (went.append(1), (True, "ok"))[1], ask=lambda: next(answers),
+                       give_up=lambda: gave_up.append(1))
+    state = {"at": (0, 'layer 2 "red" #ff0000')}
+    stop = watch_session(prompt, lambda: state["at"], period=0.01)
+    try:
+        deadline = time.monotonic() + 10
+        while not went and time.monotonic() < deadline:
+            time.sleep(0.01)
+        time.sleep(0.1)                               # the same change, seen again and again: asked once
+        assert went == [1] and prompt.changes == 1
+        state["at"] = None
+        time.sleep(0.05)
+        state["at"] = (1, 'layer 3 "blue" #0000ff')
+        deadline = time.monotonic() + 10
+        while not gave_up and time.monotonic() < deadline:
+            time.sleep(0.01)
+        assert gave_up == [1] and went == [1], "no answer: canceled there, not gone on"
+    finally:
+        stop.set()
+    said = err.getvalue()
+    assert 'put in layer 2 "red" #ff0000, then press Enter' in said and "no one to change the pen" in said
+    quiet = PenPrompt(io.StringIO(), lambda: (went.append(2), (True, "ok"))[1])
+    quiet.at(0, "pen 2")
+    deadline = time.monotonic() + 10
+    while 2 not in went and time.monotonic() < deadline:
+        time.sleep(0.01)
+    assert 2 in went and threading.active_count() >= 1

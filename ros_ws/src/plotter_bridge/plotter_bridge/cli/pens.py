@@ -27,7 +27,8 @@ def read_enter(stdin: TextIO) -> Callable[[], bool]:
 
 
 class PenPrompt:
-    """Feed it every BoardState (on_state); at each pen change it asks and goes on."""
+    """Feed it every BoardState (on_state), or where the job waits (at); at each pen change it asks
+    and goes on."""
 
     def __init__(self, err: TextIO, go_on: Callable[[], Tuple[bool, str]],
                  ask: Optional[Callable[[], bool]] = None, give_up: Optional[Callable[[], None]] = None) -> None:
@@ -41,14 +42,18 @@ class PenPrompt:
 
     def on_state(self, msg) -> None:
         # A change is known by its line: states of the same change repeat until the job goes on.
-        at = msg.current_line if msg.state_name == "PEN_CHANGE" else None
+        self.at(msg.current_line if msg.state_name == "PEN_CHANGE" else None, msg.next_pen)
+
+    def at(self, change: Optional[int], pen: str) -> None:
+        """The job waits at pen change `change` (any key that tells one from another) for `pen`;
+        None: it does not wait."""
         with self._lock:
-            if at is None or at == self._at:
-                self._at = at
+            if change is None or change == self._at:
+                self._at = change
                 return
-            self._at = at
+            self._at = change
             self.changes += 1
-        threading.Thread(target=self._change, args=(msg.next_pen,), daemon=True).start()
+        threading.Thread(target=self._change, args=(pen,), daemon=True).start()
 
     def _change(self, pen: str) -> None:
         if self.ask is None:
@@ -67,3 +72,18 @@ class PenPrompt:
         ok, message = self.go_on()
         if not ok:
             self.err.write(f"pen change: {message}\n")
+
+
+def watch_session(prompt: PenPrompt, waiting: Callable[[], Optional[Tuple[int, str]]],
+                  period: float = 0.1) -> threading.Event:
+    """Feed the prompt from a bridge in this process (SerialBridge.pen_change_waiting) every
+    `period` s, not from the topic, which another plotter in the ROS domain may also publish;
+    set the event to stop."""
+    stop = threading.Event()
+
+    def loop() -> None:
+        while not stop.wait(period):
+            found = waiting()
+            prompt.at(*(found if found is not None else (None, "")))
+    threading.Thread(target=loop, name="pen-changes", daemon=True).start()
+    return stop

@@ -160,13 +160,10 @@ class StateRecorder:
         return self.samples[-1][:2] if self.samples else (0.0, 0.0)
 
 
-def watch_pen_changes(node, args: argparse.Namespace, err: TextIO, go_on, give_up=None) -> None:
-    """Say at each pen change which pen comes next and go on when the user says (cli/pens.py)."""
-    from plotter_bridge.nodes.qos import latched
-    from plotter_interfaces.msg import BoardState
+def pen_prompt(args: argparse.Namespace, err: TextIO, go_on, give_up=None):
+    """What says at each pen change which pen comes next and goes on when the user says (cli/pens.py)."""
     from .pens import PenPrompt, read_enter
-    prompt = PenPrompt(err, go_on, None if getattr(args, "no_pen_wait", False) else read_enter(sys.stdin), give_up)
-    node.create_subscription(BoardState, "state", prompt.on_state, latched())
+    return PenPrompt(err, go_on, None if getattr(args, "no_pen_wait", False) else read_enter(sys.stdin), give_up)
 
 
 def write_pictures(args: argparse.Namespace, text: str, name: str, start: tuple,
@@ -222,6 +219,7 @@ def run_program_text(text: str, name: str, args: argparse.Namespace,
         return run_goal_on_graph(args, name, RunProgram, "run_program", goal, "" if resume_id else text, out, err)
     from dataclasses import replace
     from plotter_bridge.nodes.local_graph import LocalGraph
+    from .pens import watch_session
     from plotter_bridge.nodes.serial_bridge import IO_SWITCH_INTERVAL
     # The serial bridge runs in this process: see serial_bridge.main().
     sys.setswitchinterval(IO_SWITCH_INTERVAL)
@@ -237,8 +235,9 @@ def run_program_text(text: str, name: str, args: argparse.Namespace,
         bar = None if args.quiet else ProgressDisplay(name, err, err.isatty())
         with LocalGraph(options) as graph:
             recorder = StateRecorder(graph.client_node) if pictures else None
-            watch_pen_changes(graph.client_node, args, err, graph.bridge.session.continue_job,
-                              lambda: graph.bridge.session.cancel(graph.bridge.session.job, timeout=0))
+            prompt = pen_prompt(args, err, graph.bridge.session.continue_job,
+                                lambda: graph.bridge.session.cancel(graph.bridge.session.job, timeout=0))
+            watching = watch_session(prompt, graph.bridge.pen_change_waiting)
             start = recorder.start() if recorder else (0.0, 0.0)
             try:
                 result = graph.run_program(text, name, progress=bar, resume=resume_id)
@@ -247,6 +246,8 @@ def run_program_text(text: str, name: str, args: argparse.Namespace,
                     bar.close(False)
                 err.write(f"{name}: canceled\n")
                 return EXIT_INTERRUPTED
+            finally:
+                watching.set()
             report = reliability_report(graph) if options.mock and (args.faults or args.seq_log) else ""
         if bar:
             bar.close(result.success)
@@ -290,12 +291,15 @@ def run_goal_on_graph(args: argparse.Namespace, name: str, action_type, action: 
     if why:
         err.write(f"{why}\n")
         return EXIT_BAD_PROGRAM
+    from plotter_bridge.nodes.qos import latched
+    from plotter_interfaces.msg import BoardState
     from .client import GraphClient, Missing
     svg_out, png_out = getattr(args, "svg", ""), getattr(args, "png", "")
     display = None if args.quiet else ProgressDisplay(name, err, err.isatty())
     with GraphClient(args.namespace) as client:
         recorder = StateRecorder(client.node) if (svg_out or png_out) else None
-        watch_pen_changes(client.node, args, err, lambda: client.trigger("resume"))
+        prompt = pen_prompt(args, err, lambda: client.trigger("resume"))
+        client.node.create_subscription(BoardState, "state", prompt.on_state, latched())
         try:
             start = recorder.start() if recorder else (0.0, 0.0)
             outcome = client.run_goal(action_type, action, goal, display or (lambda fb: None))

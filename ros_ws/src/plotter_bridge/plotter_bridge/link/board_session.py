@@ -30,10 +30,12 @@ things go wrong:
   port away longer than `reconnect_timeout` end it early.
 - A pen change in a job (`M6 k`, protocol.py) goes to the board as a 1 ms
   dwell, and nothing after it is sent: once the board has done everything
-  up to it and stands idle, the job waits (`Job.pen_change`) until
-  continue_job(), with nothing moving.  Cancel, e-stop and reset end it
-  there as anywhere else; the counts go on across it as if it were one
-  command, so a journal resume finds its place.
+  up to it and stands idle, the job waits (`Job.pen_change`) with the board
+  held (`!!`: a panel shows "Paused", and nothing moves), until
+  continue_job() (the bridge's resume) or the board's own pause / resume
+  key, which the session sees as the hold ending.  Cancel, e-stop and reset
+  end it there as anywhere else; the counts go on across it as if it were
+  one command, so a journal resume finds its place.
 
 The caller runs `pump()` in a loop on one thread; everything else may be
 called from other threads.  Waits happen outside the lock.
@@ -88,6 +90,7 @@ class Job:
     expected_end: Optional[tuple] = None  # where the pen must be once every command ran
     source: Tuple[List[str], List[int]] = ([], [])  # the whole job: `commands` are those submitted so far
     pen_change: Optional[int] = None    # the job waits at this pen change (M6 k) for continue_job()
+    change_held: bool = False           # ... and the board has been seen held for it
 
     @property
     def total(self) -> int:
@@ -329,6 +332,8 @@ class BoardSession:
             job.started = max(job.started, started_index(job.first % SEQ_MOD, len(job.commands), st))
             if st.state == "Alarm" and job.error is None:
                 self._fail(job, f"board alarm (code {st.alarm})", stop=False)
+            if job.pen_change is not None and job.error is None:
+                self._watch_pen_change(job, st)
             self._check_job_end(job, st)
         if self.on_status:
             self.on_status(st)
@@ -438,13 +443,24 @@ class BoardSession:
             job = self.job
             if job is None or job.result is not None or job.pen_change is None:
                 return False, "no job waits for a pen change"
-            change = job.pen_change
-            job.pen_change = None
-            job.status_at_last_ack = self.status_count     # done again only after a status that follows
-            self._submit_part(job)
-            self.log(f"pen change {change + 1}: the new pen is in, the job goes on")
-            self._changed()
-            return True, f"pen change {change + 1} done: the job goes on"
+            self._request_rt(RT_RESUME, _not_held)        # the hold of the pen change (lines queue meanwhile)
+            return True, self._go_on(job, "the new pen is in")
+
+    def _go_on(self, job: Job, why: str) -> str:
+        change = job.pen_change
+        job.pen_change, job.change_held = None, False
+        job.status_at_last_ack = self.status_count     # done again only after a status that follows
+        self._submit_part(job)
+        self.log(f"pen change {change + 1}: {why}, the job goes on")
+        self._changed()
+        return f"pen change {change + 1} done: the job goes on"
+
+    def _watch_pen_change(self, job: Job, st: Status) -> None:
+        """At a pen change: the board's hold taken, then left with its own pause / resume key."""
+        if st.state == "Hold":
+            job.change_held = True
+        elif job.change_held and st.state == "Idle" and self._rt is None:
+            self._go_on(job, "resumed on the board's panel")
 
     def wait_job(self, job: Job, timeout: float) -> Optional[JobResult]:
         with self._cond:
@@ -484,8 +500,9 @@ class BoardSession:
             if len(job.commands) < job.total:
                 if job.pen_change is None:
                     job.pen_change = pen_change_number(job.source[0][len(job.commands) - 1])
-                    self.log(f"pen change {job.pen_change + 1}: the job waits, pen up, for the next pen "
-                             f"(resume goes on)")
+                    self._request_rt(RT_HOLD, _held)
+                    self.log(f"pen change {job.pen_change + 1}: the job waits, pen up and the board held, for "
+                             f"the next pen (resume, or the board's pause / resume key, goes on)")
                     self._changed()
                 return
             if job.expected_end is not None and (st.x, st.y) != job.expected_end:

@@ -12,8 +12,9 @@ streamer queues jobs; the bridge only runs them).  An accepted job runs to
 its end whatever its client does: only a cancel, an e-stop or reset, a
 board alarm or reset, or the port away longer than `reconnect_timeout` end
 it early (link/board_session.py).  At a pen change in a job (`M6 k`) the
-board stands still with the pen up and `state` is PEN_CHANGE, naming the
-next pen from the goal's `pen_changes`; `resume` goes on.
+board is held with the pen up and `state` is PEN_CHANGE, naming the next
+pen from the goal's `pen_changes`; `resume`, or the board's own pause /
+resume key, goes on.
 
 A port that cannot be opened is logged at ERROR at once, naming it and the
 reason, and again at each attempt (attempts come further apart, up to 10 s);
@@ -33,7 +34,7 @@ import select
 import sys
 import threading
 import time
-from typing import List, Optional
+from typing import List, Optional, Tuple
 
 from collections import OrderedDict
 from dataclasses import dataclass, field
@@ -312,7 +313,7 @@ class SerialBridge(Node):
             s.current_line = job.line_of(job.started - 1)
             s.lines_done = job.line_of(job.started - 2) if job.started > 1 else 0
             change = job.pen_change
-            if change is not None and state == BoardState.IDLE:
+            if change is not None and state in (BoardState.IDLE, BoardState.HOLD):     # held for it
                 s.state, s.state_name = BoardState.PEN_CHANGE, STATE_NAMES[BoardState.PEN_CHANGE]
                 s.next_pen = pen_label(running.pen_changes, change)
                 s.next_pen_colour = label_colour(s.next_pen)
@@ -404,6 +405,12 @@ class SerialBridge(Node):
         if st is not None and st.sensors is not None:
             fb.sensors, fb.follow_state, fb.followed_steps = st.sensors, st.follow, st.followed
         running.goal_handle.publish_feedback(fb)
+
+    def pen_change_waiting(self) -> Optional[Tuple[int, str]]:
+        """(the job's pen change, from 0, and what it asks for) while the running job waits at one."""
+        running = self._running
+        change = running.job.pen_change if running is not None else None
+        return None if change is None else (change, pen_label(running.pen_changes, change))
 
     def _remember(self, job_id: str, outcome: JobResult) -> None:
         self._finished[job_id] = outcome
