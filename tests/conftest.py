@@ -120,3 +120,33 @@ def rclpy_context():
     finally:
         if context.ok():
             rclpy.shutdown(context=context)
+
+
+@pytest.fixture
+def rig():
+    """A BoardSession on the host build of the firmware core, on simulated time
+    (reliability_sim.SimRig), connected."""
+    from firmware_build import host_library
+    from reliability_sim import SimRig
+    r = SimRig(library=host_library())
+    r.connect()
+    yield r
+    r.close()
+
+
+# Three colours, no layers, 100 x 60 mm: blue written two ways is one pen.
+COLOURS_SVG = """<svg xmlns="http://www.w3.org/2000/svg" width="100mm" height="60mm" viewBox="0 0 100 60">
+<rect x="10" y="10" width="80" height="40" stroke="black" fill="none"/>
+<circle cx="30" cy="30" r="10" stroke="red" fill="none"/>
+<line x1="50" y1="40" x2="85" y2="40" stroke="#0000ff"/>
+<line x1="50" y1="45" x2="85" y2="45" stroke="blue"/>
+</svg>
+"""
+
+
+@pytest.fixture
+def colours(tmp_path):
+    """The path of COLOURS_SVG, a drawing in three pens."""
+    path = tmp_path / "colours.svg"
+    path.write_text(COLOURS_SVG)
+    return str(path)

@@ -2,6 +2,7 @@
 a probe node in the test process, and geometry for comparing traces."""
 from __future__ import annotations
 
+import contextlib
 import math
 import os
 
@@ -99,3 +100,39 @@ class ActionPair:
 
     def __exit__(self, *exc) -> None:
         self.close()
+
+
+@contextlib.contextmanager
+def watched_graph(workdir, **graph_args):
+    """A PlotterGraph in a domain of its own, up and IDLE, with a probe keeping every
+    /plotter/state (graph.states, under graph.lock; last_state(graph)) and the environment
+    for `plotter` commands on it (graph.env); afterwards every process must have ended cleanly."""
+    import threading
+    from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
+    from node_processes import new_domain
+    from plotter_interfaces.msg import BoardState
+    domain = new_domain()
+    g = PlotterGraph(domain, workdir, **graph_args)
+    g.probe = Probe(domain)
+    g.states, g.lock = [], threading.Lock()
+    g.env = dict(os.environ, ROS_DOMAIN_ID=str(domain), ROS_AUTOMATIC_DISCOVERY_RANGE="LOCALHOST")
+
+    def keep(m):
+        with g.lock:
+            g.states.append(m)
+    latched = QoSProfile(depth=1, reliability=ReliabilityPolicy.RELIABLE, durability=DurabilityPolicy.TRANSIENT_LOCAL)
+    g.probe.node.create_subscription(BoardState, "state", keep, latched)
+    try:
+        wait_until(lambda: any(s.state == BoardState.IDLE for s in g.states), 60, "IDLE")
+        yield g
+    finally:
+        print(g.outputs())          # shown with a failure
+        g.probe.close()
+        codes = g.close()
+    assert all(c == 0 for c in codes), codes
+
+
+def last_state(graph):
+    """The last /plotter/state a watched_graph's probe kept."""
+    with graph.lock:
+        return graph.states[-1]

@@ -11,7 +11,6 @@ hold it."""
 from __future__ import annotations
 
 import math
-import os
 import re
 import subprocess
 import threading
@@ -20,8 +19,8 @@ from pathlib import Path
 import pytest
 
 from follow_lines import distances, path_length
-from node_processes import NodeProcess, PlotterGraph, new_domain, read_trace, wait_until
-from ros_graph import Probe
+from node_processes import NodeProcess, new_domain, read_trace, wait_until
+from ros_graph import last_state, watched_graph
 
 pytestmark = pytest.mark.ros
 
@@ -40,36 +39,12 @@ def circle_points(n: int = 720):
 
 @pytest.fixture(scope="module")
 def graph(tmp_path_factory):
-    from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
-    from plotter_interfaces.msg import BoardState
     tmp = tmp_path_factory.mktemp("follow")
     sheet = tmp / "circle.gcode"
     sheet.write_text(CIRCLE)
-    domain = new_domain()
-    g = PlotterGraph(domain, tmp, board_args=("-p", f"sheet:={sheet}", "-p", "sheet_start:=112,100"),
-                     streamer_args=("-p", "x_min:=-50.0", "-p", "y_min:=-50.0"))
-    g.probe = Probe(domain)
-    g.states, g.lock = [], threading.Lock()
-    g.env = dict(os.environ, ROS_DOMAIN_ID=str(domain), ROS_AUTOMATIC_DISCOVERY_RANGE="LOCALHOST")
-
-    def keep(m):
-        with g.lock:
-            g.states.append(m)
-    latched = QoSProfile(depth=1, reliability=ReliabilityPolicy.RELIABLE, durability=DurabilityPolicy.TRANSIENT_LOCAL)
-    g.probe.node.create_subscription(BoardState, "state", keep, latched)
-    try:
-        wait_until(lambda: any(s.state == BoardState.IDLE for s in g.states), 60, "IDLE")
+    with watched_graph(tmp, board_args=("-p", f"sheet:={sheet}", "-p", "sheet_start:=112,100"),
+                       streamer_args=("-p", "x_min:=-50.0", "-p", "y_min:=-50.0")) as g:
         yield g
-    finally:
-        print(g.outputs())          # shown with a failure
-        g.probe.close()
-        codes = g.close()
-    assert all(c == 0 for c in codes), codes
-
-
-def last_state(graph):
-    with graph.lock:
-        return graph.states[-1]
 
 
 def pen_trace(graph, start: int = 0):

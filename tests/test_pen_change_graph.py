@@ -3,16 +3,14 @@ the running plotter stops at PEN_CHANGE with the pen up at the park position,
 nothing moves while it waits, and `plotter resume` draws the second layer."""
 from __future__ import annotations
 
-import os
 import subprocess
-import threading
 import time
 from pathlib import Path
 
 import pytest
 
-from node_processes import PlotterGraph, new_domain, read_trace, wait_until
-from ros_graph import Probe
+from node_processes import read_trace, wait_until
+from ros_graph import last_state, watched_graph
 
 pytestmark = pytest.mark.ros
 
@@ -30,32 +28,8 @@ TWO_COLOURS = """<svg xmlns="http://www.w3.org/2000/svg" width="60mm" height="40
 
 @pytest.fixture
 def graph(tmp_path):
-    from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
-    from plotter_interfaces.msg import BoardState
-    domain = new_domain()
-    g = PlotterGraph(domain, tmp_path, streamer_args=("-p", f"park_x:={PARK[0]}", "-p", f"park_y:={PARK[1]}"))
-    g.probe = Probe(domain)
-    g.states, g.lock = [], threading.Lock()
-    g.env = dict(os.environ, ROS_DOMAIN_ID=str(domain), ROS_AUTOMATIC_DISCOVERY_RANGE="LOCALHOST")
-
-    def keep(m):
-        with g.lock:
-            g.states.append(m)
-    latched = QoSProfile(depth=1, reliability=ReliabilityPolicy.RELIABLE, durability=DurabilityPolicy.TRANSIENT_LOCAL)
-    g.probe.node.create_subscription(BoardState, "state", keep, latched)
-    try:
-        wait_until(lambda: any(s.state == BoardState.IDLE for s in g.states), 60, "IDLE")
+    with watched_graph(tmp_path, streamer_args=("-p", f"park_x:={PARK[0]}", "-p", f"park_y:={PARK[1]}")) as g:
         yield g
-    finally:
-        print(g.outputs())          # shown with a failure
-        g.probe.close()
-        codes = g.close()
-    assert all(c == 0 for c in codes), codes
-
-
-def last_state(graph):
-    with graph.lock:
-        return graph.states[-1]
 
 
 def trace_mm(graph):

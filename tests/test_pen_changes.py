@@ -10,7 +10,6 @@ from dataclasses import replace
 import pytest
 
 import gcode_testlib  # noqa: F401  (puts plotter_bridge on the path)
-from firmware_build import host_library
 from plotter_bridge.gcode.limits import WorkArea
 from plotter_bridge.gcode.parser import parse_program
 from plotter_bridge.gcode.pens import label_colour, park_for_changes
@@ -18,7 +17,6 @@ from plotter_bridge.gcode.types import GCodeError, Move, Note, ToolChange
 from plotter_bridge.link.journal import JobRecord, resume_commands
 from plotter_bridge.link.protocol import pen_change_number
 from plotter_bridge.motion.compiler import StreamerConfig, compile_program
-from reliability_sim import SimRig
 
 TWO_PENS = ("G21 G90 F1200\nT1 M6 (layer 1 \"black\" #000000)\nG0 X10 Y10\nM3\nG1 X30\nM5\n"
             "T2 M6 (layer 2 \"red\" #FF0000)\nG0 X10 Y20\nM3\nG1 X30\nM5\n")
@@ -88,14 +86,6 @@ def test_a_park_position_outside_the_work_area_is_refused_at_the_m6():
 
 
 # ------------------------------------------------------------ the session holds the job
-
-@pytest.fixture
-def rig():
-    r = SimRig(library=host_library())
-    r.connect()
-    yield r
-    r.close()
-
 
 def start(rig, texts):
     job = rig.session.start_job(texts, list(range(1, len(texts) + 1)))

@@ -19,26 +19,18 @@ from plotter_shapes.svg_input import svg_program
 from reliability_sim import SimRig
 
 DATA = Path(__file__).parent / "data"
-COLOURS = """<svg xmlns="http://www.w3.org/2000/svg" width="100mm" height="60mm" viewBox="0 0 100 60">
-<rect x="10" y="10" width="80" height="40" stroke="black" fill="none"/>
-<circle cx="30" cy="30" r="10" stroke="red" fill="none"/>
-<line x1="50" y1="40" x2="85" y2="40" stroke="blue"/>
-<line x1="50" y1="45" x2="85" y2="45" stroke="blue"/>
-</svg>
-"""
 
 
 @pytest.fixture
-def colours(tmp_path):
-    path = tmp_path / "colours.svg"
-    path.write_text(COLOURS)
-    return "\n".join(svg_program(str(path))) + "\n"
+def program(colours):
+    """The three-pen drawing of conftest.py as a program."""
+    return "\n".join(svg_program(colours)) + "\n"
 
 
-def test_each_pen_in_its_colour_with_its_length_and_the_travel_through_the_park(colours):
-    plan = preview_program(colours)
+def test_each_pen_in_its_colour_with_its_length_and_the_travel_through_the_park(program):
+    plan = preview_program(program)
     assert [(layer.name, layer.colour) for layer in plan.layers] == [
-        ('layer 1 "black"', "#000000"), ('layer 2 "red"', "#ff0000"), ('layer 3 "blue"', "#0000ff")]
+        ('layer 1 "black"', "#000000"), ('layer 2 "red"', "#ff0000"), ('layer 3 "#0000ff"', "#0000ff")]
     lengths = [layer.length_mm for layer in plan.layers]
     assert lengths == pytest.approx([240.0, 2 * math.pi * 10, 70.0], abs=0.01)
     assert plan.drawn_mm == pytest.approx(sum(lengths))
@@ -98,9 +90,10 @@ def test_the_planned_time_is_the_board_s_within_5_percent(drawing, baud):
     assert abs(planned - board) <= 0.05 * board, (planned, board)
 
 
-def test_plotter_check_writes_the_preview_with_a_group_per_pen(tmp_path, colours):
+def test_plotter_check_writes_the_preview_with_a_group_per_pen(tmp_path, program):
+    text = program
     program = tmp_path / "colours.gcode"
-    program.write_text(colours)
+    program.write_text(text)
     out, err = io.StringIO(), io.StringIO()
     with contextlib.redirect_stdout(out), contextlib.redirect_stderr(err):
         code = cli.main(["check", str(program), "--svg", str(tmp_path / "plan.svg"),

@@ -8,15 +8,7 @@ import pytest
 
 from firmware_build import host_library
 from plotter_bridge.sim.faults import FaultSpec, FaultyChannel, parse_faults
-from reliability_sim import SimRig, fault_run, random_job
-
-
-@pytest.fixture
-def rig():
-    r = SimRig(library=host_library())
-    r.connect()
-    yield r
-    r.close()
+from reliability_sim import fault_run, random_job
 
 
 # --- the fault specification and channel -------------------------------------------

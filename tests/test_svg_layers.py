@@ -19,22 +19,6 @@ from plotter_shapes.svg_input import (PX_PER_MM, Placement, VectorError, drawing
 VPYPE = Path(__file__).parent / "data" / "drawings" / "vpype"
 CORPUS = Path(__file__).parent / "data" / "corpus" / "svg"
 
-# Three colours, no layers: blue written two ways is one pen.
-COLOURS = """<svg xmlns="http://www.w3.org/2000/svg" width="100mm" height="60mm" viewBox="0 0 100 60">
-<rect x="10" y="10" width="80" height="40" stroke="black" fill="none"/>
-<circle cx="30" cy="30" r="10" stroke="red" fill="none"/>
-<line x1="50" y1="40" x2="85" y2="40" stroke="#0000ff"/>
-<line x1="50" y1="45" x2="85" y2="45" stroke="blue"/>
-</svg>
-"""
-
-
-@pytest.fixture
-def colours(tmp_path):
-    path = tmp_path / "colours.svg"
-    path.write_text(COLOURS)
-    return str(path)
-
 
 def changes(program):
     return [i for i in parse_program("\n".join(program) + "\n").items if isinstance(i, ToolChange) and i.wait]

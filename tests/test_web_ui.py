@@ -203,17 +203,22 @@ def test_emergency_stop_and_reset(page):
     wait_until(lambda: text(page.driver, "state") == "IDLE", 15, "IDLE after reset")
 
 
+def run_and_cancel(page, after: float) -> None:
+    """Run the checked file, cancel it `after` s into its run, and wait until the board rests."""
+    wait_until(lambda: "fits" in text(page.driver, "check-result"), 30, "the check")
+    click_for_job(page, "run")
+    wait_until(lambda: text(page.driver, "state") == "RUNNING", 30, "RUNNING")
+    time.sleep(after)
+    page.driver.find_element("id", "cancel").click()
+    wait_job(page, "canceled", 30)
+    wait_until(lambda: text(page.driver, "state") == "IDLE", 30, "IDLE after the cancel")
+
+
 def test_cancel_stops_the_job_and_set_origin_zeroes_the_position(page):
     wait_until(lambda: text(page.driver, "state") == "IDLE", 30, "IDLE")
     upload(page, "long.gcode", "(long)\nG21 G90\nG0 X20 Y40\nM3\n" + "G1 X180 Y40 F1200\nG1 X20 Y41\n" * 3
            + "M5\nM2\n")
-    wait_until(lambda: "fits" in text(page.driver, "check-result"), 30, "the check")
-    click_for_job(page, "run")
-    wait_until(lambda: text(page.driver, "state") == "RUNNING", 30, "RUNNING")
-    time.sleep(1.0)
-    page.driver.find_element("id", "cancel").click()
-    wait_job(page, "canceled", 30)
-    wait_until(lambda: text(page.driver, "state") == "IDLE", 30, "IDLE after the cancel")
+    run_and_cancel(page, after=1.0)
     stopped = read_trace(page.trace)
     time.sleep(1.0)
     assert read_trace(page.trace) == stopped, "the board moved after the cancel"
@@ -294,13 +299,7 @@ def test_a_job_stopped_half_way_is_resumed_from_the_page(page):
     wait_until(lambda: text(page.driver, "state") == "IDLE", 30, "IDLE")
     upload(page, "halfway.gcode", "(halfway)\nG21 G90\nG0 X20 Y60\nM3\n" + "G1 X180 Y60 F1500\nG1 X20 Y61\n" * 2
            + "G1 X30 Y70\nM5\nM2\n")
-    wait_until(lambda: "fits" in text(page.driver, "check-result"), 30, "the check")
-    click_for_job(page, "run")
-    wait_until(lambda: text(page.driver, "state") == "RUNNING", 30, "RUNNING")
-    time.sleep(1.5)
-    page.driver.find_element("id", "cancel").click()
-    wait_job(page, "canceled", 30)
-    wait_until(lambda: text(page.driver, "state") == "IDLE", 30, "IDLE after the cancel")
+    run_and_cancel(page, after=1.5)
     row = "#jobs tr:first-child"
     wait_until(lambda: "halfway" in page.driver.find_element("css selector", row).text, 15, "the job in the list")
     assert "interrupted" in page.driver.find_element("css selector", row).text

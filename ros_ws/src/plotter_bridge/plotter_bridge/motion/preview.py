@@ -88,7 +88,8 @@ def _length(line: Polyline) -> float:
 def _layer(change: ToolChange, k: int) -> PenLayer:
     label = change_label(change)
     colour = label_colour(label)
-    name = label.replace(colour, "").replace(colour.upper(), "").strip() if colour else label
+    # 'layer 2 "red" #ff0000': the name is what comes before the colour written last
+    name = label[:-len(colour)].strip() if colour and label.lower().endswith(colour) else label
     return PenLayer(name or f"pen {k + 1}", colour or PALETTE[k % len(PALETTE)])
 
 
