@@ -192,3 +192,17 @@ def test_the_prompt_asks_once_per_change_and_goes_on_or_gives_up():
     while 2 not in went and time.monotonic() < deadline:
         time.sleep(0.01)
     assert 2 in went and threading.active_count() >= 1
+
+
+def test_an_emergency_stop_at_a_pen_change_ends_the_job_there(rig):
+    texts = [c.text for c in compile_program(TWO_PENS, StreamerConfig())]
+    job = start(rig, texts)
+    assert rig.run_until(lambda: job.pen_change is not None and rig.session.link.status.state == "Hold", 60)
+    rig.session.realtime("estop", timeout=0)
+    assert rig.run_until(lambda: job.result is not None, 5)
+    assert not job.result.success and "emergency stop" in job.result.message
+    assert job.result.completed == texts.index("M6 0"), "resumable at the pen change"
+    assert rig.session.continue_job()[0] is False
+    at = rig.core.position
+    rig.run_until(lambda: False, 1.0)
+    assert rig.core.position == at == (0, 0)
