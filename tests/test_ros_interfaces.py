@@ -46,7 +46,9 @@ def test_board_state_constants_and_roundtrip():
     from plotter_interfaces.msg import BoardState
 
     assert (BoardState.IDLE, BoardState.RUNNING, BoardState.HOLD,
-            BoardState.ALARM, BoardState.DISCONNECTED) == (0, 1, 2, 3, 4)
+            BoardState.ALARM, BoardState.DISCONNECTED, BoardState.PEN_CHANGE) == (0, 1, 2, 3, 4, 5)
+    waiting = BoardState(state=BoardState.PEN_CHANGE, next_pen='layer 2 "red" #ff0000', next_pen_colour="#ff0000")
+    assert (waiting.next_pen, waiting.next_pen_colour) == ('layer 2 "red" #ff0000', "#ff0000")
 
     state = BoardState()
     state.header.stamp = Time(sec=1700000000, nanosec=123456789)
