@@ -121,7 +121,7 @@ def plotter_with_input(args, stdin_text, timeout=600):
 def test_plotter_svg_waits_at_each_pen_change_for_enter(tmp_path, colours):
     from ros_graph import read_trace
     trace = tmp_path / "trace.csv"
-    r = plotter_with_input(["svg", colours, "--mock", "--quiet", "--feed", "4000", "--trace", trace], "\n\n")
+    r = plotter_with_input(["svg", colours, "--mock", "--quiet", "--feed", "6000", "--trace", trace], "\n\n")
     assert r.returncode == 0, r.stderr
     asked = [line for line in r.stderr.splitlines() if line.startswith("pen change: put in")]
     assert asked == ['pen change: put in layer 2 "red" #ff0000, then press Enter (or run plotter resume); '
@@ -139,7 +139,7 @@ def test_plotter_svg_without_anyone_to_change_the_pen_stops_there_resumable(tmp_
     r = plotter_with_input(["svg", colours, "--mock", "--quiet", "--journal", journal], "")
     assert r.returncode == 1, r.stderr
     assert "no one to change the pen" in r.stderr and "plotter resume" in r.stderr
-    r = plotter_with_input(["svg", colours, "--mock", "--quiet", "--no-pen-wait"], "")
+    r = plotter_with_input(["svg", colours, "--mock", "--quiet", "--feed", "6000", "--no-pen-wait"], "")
     assert r.returncode == 0, r.stderr
     assert r.stderr.count("(not waited for: --no-pen-wait)") == 2
 

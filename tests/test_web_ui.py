@@ -297,7 +297,7 @@ def test_a_three_pen_drawing_is_planned_before_run_and_waits_at_each_pen_change(
 
 def test_a_job_stopped_half_way_is_resumed_from_the_page(page):
     wait_until(lambda: text(page.driver, "state") == "IDLE", 30, "IDLE")
-    upload(page, "halfway.gcode", "(halfway)\nG21 G90\nG0 X20 Y60\nM3\n" + "G1 X180 Y60 F1500\nG1 X20 Y61\n" * 2
+    upload(page, "halfway.gcode", "(halfway)\nG21 G90\nG0 X20 Y60\nM3\n" + "G1 X180 Y60 F3000\nG1 X20 Y61\n" * 2
            + "G1 X30 Y70\nM5\nM2\n")
     run_and_cancel(page, after=1.5)
     row = "#jobs tr:first-child"

@@ -360,7 +360,8 @@ _STREAM = Command("stream", "stream a G-code program to the board (or a mock boa
 
 def _configure_resume(p: argparse.ArgumentParser) -> None:
     p.add_argument("resume_id", metavar="JOB_ID", nargs="?", default="",
-                   help="id of an interrupted job (see plotter jobs); without it, go on after plotter hold")
+                   help="id of an interrupted job (see plotter jobs); without it, go on after plotter hold or at "
+                        "a pen change")
     connection_args(p)
 
 
@@ -373,8 +374,8 @@ def run_resume(args: argparse.Namespace) -> int:
     return run_program_text("", f"job {args.resume_id}", args)
 
 
-_RESUME = Command("resume", "go on after plotter hold; with JOB_ID, finish an interrupted job from its last "
-                            "completed line (from the journal)", _configure_resume, run_resume)
+_RESUME = Command("resume", "go on after plotter hold or at a pen change; with JOB_ID, finish an interrupted job "
+                            "from its last completed line (from the journal)", _configure_resume, run_resume)
 
 
 def _configure_jobs(p: argparse.ArgumentParser) -> None:
