@@ -210,23 +210,25 @@ def draw_preview(preview, area: Area = Area(), title: str = "plotter"):
 def write_picture(path: str, runs: Sequence[Run], programmed: Sequence[Polyline],
                   area: Area = Area(), title: str = "plotter") -> None:
     """Write the picture as SVG or PNG (from the file name's suffix)."""
-    save(draw(runs, programmed, area, title), path)
+    save(lambda: draw(runs, programmed, area, title), path)
 
 
 def write_preview(path: str, preview, area: Area = Area(), title: str = "plotter") -> None:
     """Write a job's preview (draw_preview) as SVG or PNG."""
-    save(draw_preview(preview, area, title), path)
+    save(lambda: draw_preview(preview, area, title), path)
 
 
-def save(fig, path: str) -> None:
-    """A figure as SVG or PNG (from the file name's suffix), the same file for the same input."""
+def save(make_figure, path: str) -> None:
+    """The figure make_figure() draws, as SVG or PNG (from the file name's suffix), the same file for
+    the same input.  The figure is drawn inside the settings: a line takes path.simplify when it is
+    made, and a simplified path would drop the trace's points."""
     from matplotlib import rc_context
     fmt = picture_format(path)
     Path(path).parent.mkdir(parents=True, exist_ok=True)
     metadata = {"Date": None} if fmt == "svg" else {"Software": "plotter"}
     # Same input, same file: fixed ids in the SVG, text kept as text; every point kept.
     with rc_context({"svg.hashsalt": "plotter", "svg.fonttype": "none", "path.simplify": False}):
-        fig.savefig(path, format=fmt, metadata=metadata)
+        make_figure().savefig(path, format=fmt, metadata=metadata)
 
 
 def mm_to_pixel(fig, p: Point) -> Tuple[float, float]:
