@@ -137,11 +137,10 @@ class WebUi(Node):
         ns, group = namespace.rstrip("/"), self._group
         self._target = ns or "/"
         self._state, self._ink, self._planned, self._last_name = None, [], [], ""
-        self._target_subs = [self.create_subscription(BoardState, f"{ns}/state", self._on_state, latched(),
-                                               callback_group=group),
-                      self.create_subscription(Marker, f"{ns}/ink", self._on_ink, latched(), callback_group=group),
-                      self.create_subscription(Path, f"{ns}/planned_path", self._on_planned, latched(),
-                                               callback_group=group)]
+        self._target_subs = [
+            self.create_subscription(BoardState, f"{ns}/state", self._on_state, latched(), callback_group=group),
+            self.create_subscription(Marker, f"{ns}/ink", self._on_ink, latched(), callback_group=group),
+            self.create_subscription(Path, f"{ns}/planned_path", self._on_planned, latched(), callback_group=group)]
         self._run_client = ActionClient(self, self._RunProgram, f"{ns}/run_program", callback_group=group)
         self._draw_client = ActionClient(self, self._DrawShape, f"{ns}/draw", callback_group=group)
         self._follow_client = ActionClient(self, self._FollowLine, f"{ns}/follow_line", callback_group=group)
