@@ -65,11 +65,17 @@ def page(tmp_path_factory):
         print(graph.outputs(), "\n--- web_ui\n", ui.output())
         raise
     finally:
-        if driver is not None:
-            driver.quit()
-        assert ui.interrupt() == 0, ui.output()
-        ui.close()
-        graph.close()
+        try:
+            if driver is not None:
+                driver.quit()
+            code = ui.interrupt()
+            said = ui.output()
+            ui.close()
+        finally:
+            # Whatever the page did: a graph left running would take the CPU (and its ROS domain)
+            # from every test after it.
+            graph.close()
+        assert code == 0, said
 
 
 def text(driver, element_id: str) -> str:

@@ -563,6 +563,8 @@ class BoardSession:
             if self.port is None or self.link is None:
                 return False, "board not connected"
             job = self.job
+            if what == "resume" and job is not None and job.result is None and job.pen_change is not None:
+                return self.continue_job()           # at a pen change, resume is "the next pen is in"
             if what in ("estop", "reset"):
                 if job is not None and job.result is None:
                     job.error = job.error or ("emergency stop" if what == "estop" else "reset")

@@ -463,11 +463,6 @@ class SerialBridge(Node):
         return self._realtime("hold", response)
 
     def _srv_resume(self, request, response):
-        # At a pen change the board is idle, not held: resume is the operator's "the new pen is in".
-        if self.session.job is not None and self.session.job.pen_change is not None:
-            response.success, response.message = self.session.continue_job()
-            if response.success:
-                return response
         return self._realtime("resume", response)
 
     def _srv_reset(self, request, response):
