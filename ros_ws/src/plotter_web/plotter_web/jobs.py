@@ -14,7 +14,6 @@ from __future__ import annotations
 import math
 import os
 import tempfile
-import time
 from dataclasses import dataclass, field
 from typing import List, Optional, Tuple
 
@@ -119,16 +118,10 @@ def jog_program(dx: float, dy: float) -> str:
 
 
 def journal_jobs(journal, limit: int) -> List[dict]:
-    """The newest `limit` jobs of a journal (link/journal.py) as the page lists them."""
-    out = []
-    for job_id, progress, mtime in journal.jobs()[:limit]:
-        try:
-            record, _ = journal.load(job_id)
-        except KeyError:
-            continue
-        out.append({"id": job_id, "name": record.name,
-                    "when": time.strftime("%Y-%m-%d %H:%M:%S", time.localtime(mtime)), "state": progress.state,
-                    "completed": progress.completed, "total": len(record.commands),
-                    "note": f"resumed as {progress.resumed_by[:8]}" if progress.resumed_by else progress.message,
-                    "resumable": progress.resumable})
-    return out
+    """The newest `limit` jobs of a journal (link/journal.py job_summaries) as the page lists them."""
+    from plotter_bridge.link.journal import job_summaries
+    return [{"id": j.job_id, "name": j.name, "when": j.when, "state": j.state, "completed": j.completed,
+             "total": j.total, "resumable": j.resumable,
+             # the page is narrow: the id of the job that resumed it, as its first 8 characters
+             "note": j.note[:len("resumed as ") + 8] if j.note.startswith("resumed as ") else j.note}
+            for j in job_summaries(journal, limit)]

@@ -384,14 +384,9 @@ def _configure_jobs(p: argparse.ArgumentParser) -> None:
 
 
 def run_jobs(args: argparse.Namespace, out: TextIO = sys.stdout) -> int:
-    from plotter_bridge.link.journal import Journal, default_journal_dir
-    journal = Journal(args.journal or default_journal_dir())
-    for job_id, prog, mtime in journal.jobs():
-        record, _ = journal.load(job_id)
-        when = time.strftime("%Y-%m-%d %H:%M:%S", time.localtime(mtime))
-        note = f"resumed as {prog.resumed_by}" if prog.resumed_by else prog.message
-        out.write(f"{job_id}  {when}  {prog.state:<11} {prog.completed:>6}/{len(record.commands):<6} "
-                  f"{record.name}  {note}\n")
+    from plotter_bridge.link.journal import Journal, default_journal_dir, job_summaries
+    for j in job_summaries(Journal(args.journal or default_journal_dir())):
+        out.write(f"{j.job_id}  {j.when}  {j.state:<11} {j.completed:>6}/{j.total:<6} {j.name}  {j.note}\n")
     return EXIT_OK
 
 

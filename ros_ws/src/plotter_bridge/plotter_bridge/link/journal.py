@@ -16,6 +16,7 @@ from __future__ import annotations
 
 import json
 import os
+import time
 import re
 from dataclasses import asdict, dataclass, field
 from pathlib import Path
@@ -113,6 +114,34 @@ class Journal:
                 continue
             out.append((job_id, prog, path.stat().st_mtime))
         return sorted(out, key=lambda t: -t[2])
+
+
+@dataclass(frozen=True)
+class JobSummary:
+    """One journalled job as `plotter jobs` and the web page list it."""
+    job_id: str
+    name: str
+    when: str                 # local time of its last progress, YYYY-MM-DD HH:MM:SS
+    state: str
+    completed: int
+    total: int
+    note: str                 # "resumed as ID", or why it ended
+    resumable: bool
+
+
+def job_summaries(journal: Journal, limit: Optional[int] = None) -> List[JobSummary]:
+    """The newest `limit` (None: all) jobs of the journal, newest first."""
+    out = []
+    for job_id, prog, mtime in journal.jobs()[:limit]:
+        try:
+            record, _ = journal.load(job_id)
+        except KeyError:
+            continue
+        out.append(JobSummary(job_id, record.name, time.strftime("%Y-%m-%d %H:%M:%S", time.localtime(mtime)),
+                              prog.state, prog.completed, len(record.commands),
+                              f"resumed as {prog.resumed_by}" if prog.resumed_by else prog.message,
+                              prog.resumable))
+    return out
 
 
 def _moves(text: str) -> Tuple[int, int]:
