@@ -301,6 +301,33 @@ def test_a_three_pen_drawing_is_planned_before_run_and_waits_at_each_pen_change(
     assert len(read_trace(page.trace)) > len(waiting)
 
 
+def test_the_layers_asked_for_are_planned_in_that_order_and_a_bad_order_is_refused(page):
+    layers = page.driver.find_element("id", "svg-layers")
+    try:
+        page.driver.find_element("id", "svg-width").clear()
+        page.driver.find_element("id", "svg-width").send_keys("60")
+        layers.send_keys("3,1")
+        page.driver.find_element("id", "svg-optimize").click()
+        upload(page, "two-of-three-pens.svg", THREE_PENS)
+        wait_until(lambda: "fits the work area" in text(page.driver, "check-result"), 30, "the check")
+        pens = [li.text for li in page.driver.find_elements("css selector", "#pens li")]
+        assert len(pens) == 2 and '"blue"' in pens[0] and '"black"' in pens[1], pens
+        colours = {line.value_of_css_property("stroke")
+                   for line in page.driver.find_elements("css selector", "#preview polyline")}
+        assert colours == {"rgb(0, 0, 0)", "rgb(0, 0, 255)"}, colours
+        layers.clear()
+        layers.send_keys("4,1,1")
+        page.driver.find_element("id", "check").click()
+        wait_until(lambda: page.driver.find_elements("css selector", "#errors li"), 30, "the refusal")
+        error = text(page.driver, "errors")
+        assert "4 is not a layer" in error and "1 is given twice" in error and "3 'blue'" in error, error
+        assert not page.driver.find_element("id", "run").is_enabled()
+    finally:
+        layers.clear()
+        if page.driver.find_element("id", "svg-optimize").is_selected():
+            page.driver.find_element("id", "svg-optimize").click()
+
+
 def test_a_job_stopped_half_way_is_resumed_from_the_page(page):
     wait_until(lambda: text(page.driver, "state") == "IDLE", 30, "IDLE")
     upload(page, "halfway.gcode", "(halfway)\nG21 G90\nG0 X20 Y60\nM3\n" + "G1 X180 Y60 F3000\nG1 X20 Y61\n" * 2

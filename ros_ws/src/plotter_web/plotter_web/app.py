@@ -5,8 +5,9 @@ and a small JSON API; what each call does is the Backend's (the ROS node).
     GET  /static/<file>    its script and style, served from the package
     GET  /ws               events: the work area, the board's state, the ink
                            and the planned path, the job's progress, messages
-    POST /api/check        an uploaded G-code or SVG file (multipart `file`,
-                           optional `width` mm): read, checked, kept under an id
+    POST /api/check        an uploaded G-code or SVG file (multipart `file`;
+                           for an SVG optional `width` mm, `layers` "3,1" and
+                           `optimize` 1): read, checked, kept under an id
     POST /api/run          {"id"}: run a checked job
     POST /api/draw         {"shape", "x", "y", "size", ...}: a ShapeGoal
     POST /api/jog          {"dx", "dy"} mm, pen up, while idle
@@ -59,7 +60,10 @@ class Refused(Exception):
 
 class Backend(Protocol):
     def snapshot(self) -> list: ...                      # events that bring a new page up to date
-    def check(self, filename: str, data: bytes, width: Optional[float]) -> Checked: ...
+    def check(self, filename: str, data: bytes, width: Optional[float], layers: str,
+              optimize: bool) -> Checked:
+        ...
+
     async def run(self, job: Checked) -> str: ...
     async def draw(self, fields: dict) -> str: ...
     async def jog(self, dx: float, dy: float) -> str: ...
@@ -176,9 +180,13 @@ class WebApp:
         width = _number(form.get("width") or None, "width", allow_none=True)
         if width is not None and not 1.0 <= width <= 10000.0:
             raise Refused(f"width {width:g} mm: must be 1..10000", 400)
+        layers = str(form.get("layers") or "")
+        if len(layers) > 200:
+            raise Refused(f"layers {layers[:40]!r}...: too long", 400)
+        optimize = str(form.get("optimize") or "") in ("1", "true", "on")
         data = upload.file.read()
         job = await asyncio.get_running_loop().run_in_executor(
-            None, self.backend.check, upload.filename or "upload", data, width)
+            None, self.backend.check, upload.filename or "upload", data, width, layers, optimize)
         key = uuid.uuid4().hex
         self._checked[key] = job
         while len(self._checked) > CHECKED_KEPT:

@@ -53,15 +53,19 @@ def is_svg(filename: str, data: bytes) -> bool:
     return filename.lower().endswith(".svg") or head.startswith(b"<?xml") or head.startswith(b"<svg")
 
 
-def svg_to_program(data: bytes, name: str, area: WorkArea, width: Optional[float], feed: float) -> str:
-    """An SVG drawing placed in the middle of the work area, as G-code."""
-    from plotter_shapes.svg_input import Placement, svg_program
+def svg_to_program(data: bytes, name: str, area: WorkArea, width: Optional[float], feed: float,
+                   layers: str = "", optimize: bool = False) -> str:
+    """An SVG drawing placed in the middle of the work area, as G-code: its layers in file order, or
+    those numbered in `layers` ("3,1", as `plotter svg --layers`) in that order; with `optimize` each
+    layer's paths merged and sorted."""
+    from plotter_shapes.svg_input import Placement, parse_layer_order, svg_program
+    order = parse_layer_order(layers) if layers.strip() else None
     centre = ((area.x_min + area.x_max) / 2, (area.y_min + area.y_max) / 2)
     fd, path = tempfile.mkstemp(suffix=".svg")
     try:
         with os.fdopen(fd, "wb") as f:
             f.write(data)
-        lines = svg_program(path, Placement(width, centre), feed)
+        lines = svg_program(path, Placement(width, centre), feed, optimize, order)
     finally:
         os.unlink(path)
     return "\n".join([f"({name})", *[line for line in lines if not line.startswith("(")]]) + "\n"
@@ -88,8 +92,9 @@ def check_program(text: str, name: str, area: WorkArea, start: Point, steps_per_
 
 
 def check_upload(filename: str, data: bytes, area: WorkArea, start: Point,
-                 width: Optional[float] = None, feed: float = 1500.0, link_baud: int = DEFAULT_BAUD) -> Checked:
-    """An uploaded file, read and checked."""
+                 width: Optional[float] = None, feed: float = 1500.0, link_baud: int = DEFAULT_BAUD,
+                 layers: str = "", optimize: bool = False) -> Checked:
+    """An uploaded file, read and checked; `layers` and `optimize` (svg_to_program) for an SVG drawing."""
     name = os.path.basename(filename or "upload")[:80] or "upload"
     if len(data) > MAX_UPLOAD:
         return Checked(name, errors=[{"line": 0, "message": f"file too large: {len(data)} bytes "
@@ -97,7 +102,7 @@ def check_upload(filename: str, data: bytes, area: WorkArea, start: Point,
     if is_svg(filename, data):
         from plotter_shapes.svg_input import VectorError
         try:
-            text = svg_to_program(data, name, area, width, feed)
+            text = svg_to_program(data, name, area, width, feed, layers, optimize)
         except (VectorError, ValueError) as exc:
             return Checked(name, errors=[{"line": 0, "message": str(exc).replace(tempfile.gettempdir(), ""),
                                           "text": ""}])

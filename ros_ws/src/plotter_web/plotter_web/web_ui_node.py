@@ -237,12 +237,14 @@ class WebUi(Node):
         return (s.x_mm, s.y_mm) if s is not None else (0.0, 0.0)
 
     # --- what the page asks ------------------------------------------------------------------
-    def check(self, filename: str, data: bytes, width: Optional[float]) -> Checked:
+    def check(self, filename: str, data: bytes, width: Optional[float], layers: str = "",
+              optimize: bool = False) -> Checked:
         s = self._state
         return check_upload(filename, data, self.area(), self._pen(),
                             width if width is not None else float(self.params["svg_width"]),
                             float(self.params["default_feed"]),
-                            int(s.link_baud) if s is not None and s.link_baud else DEFAULT_BAUD)
+                            int(s.link_baud) if s is not None and s.link_baud else DEFAULT_BAUD,
+                            layers, optimize)
 
     def _ready_for_a_job(self) -> None:
         s = self._state

@@ -228,6 +228,8 @@ async function check() {
   const form = new FormData();
   form.append("file", file);
   form.append("width", $("svg-width").value);
+  form.append("layers", $("svg-layers").value);
+  if ($("svg-optimize").checked) form.append("optimize", "1");
   const r = await api("api/check", form);
   setPreview(r.preview, r.plan);
   if (r.ok) {
