@@ -127,6 +127,5 @@ def journal_jobs(journal, limit: int) -> List[dict]:
     from plotter_bridge.link.journal import job_summaries
     return [{"id": j.job_id, "name": j.name, "when": j.when, "state": j.state, "completed": j.completed,
              "total": j.total, "resumable": j.resumable,
-             # the page is narrow: the id of the job that resumed it, as its first 8 characters
-             "note": j.note[:len("resumed as ") + 8] if j.note.startswith("resumed as ") else j.note}
+             "note": j.note(id_chars=8)}            # the page is narrow: the id's first 8 characters
             for j in job_summaries(journal, limit)]

@@ -386,7 +386,7 @@ def _configure_jobs(p: argparse.ArgumentParser) -> None:
 def run_jobs(args: argparse.Namespace, out: TextIO = sys.stdout) -> int:
     from plotter_bridge.link.journal import Journal, default_journal_dir, job_summaries
     for j in job_summaries(Journal(args.journal or default_journal_dir())):
-        out.write(f"{j.job_id}  {j.when}  {j.state:<11} {j.completed:>6}/{j.total:<6} {j.name}  {j.note}\n")
+        out.write(f"{j.job_id}  {j.when}  {j.state:<11} {j.completed:>6}/{j.total:<6} {j.name}  {j.note()}\n")
     return EXIT_OK
 
 

@@ -16,8 +16,8 @@ from __future__ import annotations
 
 import json
 import os
-import time
 import re
+import time
 from dataclasses import asdict, dataclass, field
 from pathlib import Path
 from typing import List, Optional, Tuple
@@ -125,8 +125,13 @@ class JobSummary:
     state: str
     completed: int
     total: int
-    note: str                 # "resumed as ID", or why it ended
+    resumed_by: str           # the job that went on with this one, "" if none
+    message: str              # why it ended
     resumable: bool
+
+    def note(self, id_chars: Optional[int] = None) -> str:
+        """"resumed as ID" (its first id_chars characters, if given), or why it ended."""
+        return f"resumed as {self.resumed_by[:id_chars]}" if self.resumed_by else self.message
 
 
 def job_summaries(journal: Journal, limit: Optional[int] = None) -> List[JobSummary]:
@@ -138,9 +143,8 @@ def job_summaries(journal: Journal, limit: Optional[int] = None) -> List[JobSumm
         except KeyError:
             continue
         out.append(JobSummary(job_id, record.name, time.strftime("%Y-%m-%d %H:%M:%S", time.localtime(mtime)),
-                              prog.state, prog.completed, len(record.commands),
-                              f"resumed as {prog.resumed_by}" if prog.resumed_by else prog.message,
-                              prog.resumable))
+                              prog.state, prog.completed, len(record.commands), prog.resumed_by,
+                              prog.message, prog.resumable))
     return out
 
 
