@@ -12,7 +12,10 @@ own encoder and reply parser (plotter_bridge.link.protocol).  Checked:
 - a single `!` or `~` between lines does nothing, and takes no byte of the
   line after it;
 - feed hold (`!!`) stops the pulses on the path and resume (`~~`) finishes
-  the move where it was going: the position is exact.
+  the move where it was going: the position is exact;
+- lines written back to back, as a host's adapter sends them, all arrive;
+- a reset pair (Ctrl-X Ctrl-X) between lines stops the move at once and
+  the board says `[reset]`.
 
 Skipped when s51 (Debian package sdcc-ucsim) is missing, except on CI.
 """
@@ -24,8 +27,8 @@ import time
 import pytest
 
 from firmware_build import FIRMWARE, mcu_image, require_s51
-from plotter_bridge.link.protocol import (RT_HOLD, RT_RESUME, RT_STATUS, Banner, Ok, Resend, Status,
-                                     machine_line, parse_reply)
+from plotter_bridge.link.protocol import (RT_HOLD, RT_RESET, RT_RESUME, RT_STATUS, Banner, Message, Ok, Resend,
+                                          Status, machine_line, parse_reply)
 
 sys.path.insert(0, str(FIRMWARE / "tools"))
 import s51sim  # noqa: E402
@@ -140,3 +143,32 @@ def test_feed_hold_stops_on_the_path_and_resume_finishes(link):
     s = link.wait_state("Idle")
     assert (s.x - start.x, s.y - start.y) == (3000, -1500)
     assert s.seq == 5 and s.underruns == 0
+
+
+def test_lines_written_back_to_back_all_arrive(link):
+    """Bursts of four lines at once, a hundred times: each line answered ok, in order."""
+    seq = link.wait_state("Idle").next_seq
+    for _ in range(100):
+        link.sim.write(b"".join(machine_line(seq + k, "D 1") for k in range(4)))
+        for k in range(4):
+            raw = link.sim.read_until(REPLY).decode().strip().splitlines()[-1]
+            reply = parse_reply(raw)
+            assert isinstance(reply, Ok) and reply.seq == seq + k, raw
+        seq += 4
+    assert link.wait_state("Idle").next_seq == seq
+
+
+def test_a_reset_pair_between_lines_stops_the_move(link):
+    start = link.wait_state("Idle")
+    seq = start.next_seq
+    raw, reply = link.send(machine_line(seq, "L 20000 0 1000"))
+    assert isinstance(reply, Ok) and reply.seq == seq, raw
+    link.wait_state("Run")
+    link.sim.write(RT_RESET)
+    raw = link.sim.read_until(rb"\[[^\]]*\][^\n]*\n").decode().strip().splitlines()[-1]
+    assert parse_reply(raw) == Message("[reset]"), raw
+    stopped = link.wait_state("Idle")
+    time.sleep(0.3)
+    still = link.status()
+    assert (still.state, still.x, still.y, still.alarm) == ("Idle", stopped.x, stopped.y, 0)
+    assert 0 < stopped.x - start.x < 20000 and stopped.y == start.y

@@ -208,7 +208,7 @@ def session(image, tmp_path_factory):
         marks["estop"].end = board.now()
         sim.go()
         board.set_pins(3, 0xFF)
-        # The reset key (Ctrl-X would open s51's own serial menu).
+        # The panel's reset key (the serial pair is tests/test_firmware_link.py's).
         board.press(K_RESET)
         marks["estop"].notes["after_reset"] = board.wait("Idle").group(0)
         # The X limit switch (P1.5) closed: heading for it is stopped, backing off is not.

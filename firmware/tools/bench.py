@@ -120,7 +120,8 @@ def measure(sim, command, saturate, before_run=None, stream=b""):
     long after it is asked to).  before_run(sim): called with the simulator
     stopped, just before the run is released.  stream: bytes written to the
     board's UART right after the release, which s51 takes in at the baud
-    rate while the run goes on."""
+    rate while the run goes on, without s51's flow control: the stream
+    outlasts the run."""
     offs = segment_offsets(s51sim.FIRMWARE / "core" / "segment.h")
     sim.go()
     sim.write(b"!!?")
@@ -138,6 +139,8 @@ def measure(sim, command, saturate, before_run=None, stream=b""):
     sim.cmd(f"tbreak 0x{stop:x}")
     if before_run is not None:
         before_run(sim)
+    if stream:
+        sim.flow_control(False)
     sim.vcd_start()
     sim.go()
     sim.write(b"~~" + stream)

@@ -10,7 +10,19 @@ Used by tools/bench.py and tests/test_firmware_sim.py.  The simulated board:
 - its 256 bytes of XRAM at every page of the xram space, as MOVX @Ri
   reaches them on the chip whatever P2 holds;
 - its UART on two pseudo-terminals in raw mode (`-S in=...,out=...`), polled
-  every cycle (`uart0_check_often=1`) so that typed lines arrive whole;
+  every cycle (`uart0_check_often=1`) so that typed lines arrive whole, and
+  with s51's flow control on (`uart0_flowctrl=1`): the pty's next byte is
+  taken only once the firmware has read SBUF.  Without it s51 loses bytes
+  the chip never would: every 10000 instructions its command loop polls the
+  pty too, and a byte it reads there while a frame is still arriving is
+  dropped, more often on a busy machine (a host's adapter sends back to
+  back at the baud rate and the chip loses none; tests/test_firmware_link.py
+  writes bursts of lines to show that none is lost).  The pty's raw
+  Ctrl-X, the reset byte, also stops being s51's escape to its menu.  But
+  bytes still waiting when the simulation stops (at a breakpoint) then keep
+  s51's command loop on the pty and away from the command port for good: a
+  host that writes more than the firmware takes before such a stop (a
+  stream beside a run) turns flow control off first (Sim.flow_control);
 - the simulator's command line on a local TCP port (`-Z`), prompt a NUL
   byte (`-P`), no colours (`-b`);
 - optionally a VCD recording of port 1 (the step/direction/pen port) and of
@@ -118,6 +130,7 @@ class Sim:
         self.running = False
         self._until_con(rb"details\.\r\n\x00")
         self.cmd("expr uart0_check_often=1")
+        self.flow_control(True)
         self.vcd = vcd
         if vcd:
             self.cmd(f'set hw vcd[0] output "{vcd}"')
@@ -239,6 +252,10 @@ class Sim:
 
     def int32(self, name):
         return int.from_bytes(self.iram(self.sym[name], 4), "little", signed=True)
+
+    def flow_control(self, on):
+        """s51's UART flow control (the module's docstring says why it is on)."""
+        self.cmd(f"expr uart0_flowctrl={int(on)}")
 
     def vcd_start(self):
         self.cmd("set hw vcd[0] start")
