@@ -45,6 +45,10 @@ class Link:
     def send(self, data: bytes):
         """One line out, its one reply back, parsed (None: checksum failed)."""
         self.sim.write(data)
+        return self.reply()
+
+    def reply(self):
+        """The next line reply, raw and parsed."""
         raw = self.sim.read_until(REPLY).decode().strip().splitlines()[-1]
         return raw, parse_reply(raw)
 
@@ -151,8 +155,7 @@ def test_lines_written_back_to_back_all_arrive(link):
     for _ in range(100):
         link.sim.write(b"".join(machine_line(seq + k, "D 1") for k in range(4)))
         for k in range(4):
-            raw = link.sim.read_until(REPLY).decode().strip().splitlines()[-1]
-            reply = parse_reply(raw)
+            raw, reply = link.reply()
             assert isinstance(reply, Ok) and reply.seq == seq + k, raw
         seq += 4
     assert link.wait_state("Idle").next_seq == seq

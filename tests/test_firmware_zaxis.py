@@ -99,9 +99,7 @@ def board(tmp_path_factory):
         sim.go()
         replies = []
         for command in COMMANDS:
-            # One at a time, to an idle board: s51's UART loses bytes of a
-            # line that arrive while the step interrupt runs, when the host
-            # is busy.
+            # One at a time, each to an idle board.
             status = wait_idle(sim)
             sim.write(command.encode() + b"\n")
             replies.append(sim.read_until(REPLY).decode().strip())
