@@ -77,6 +77,20 @@ def figure_eight(cx: float, cy: float, a: float) -> Line:
     return Line(f"figure eight {2 * a:g}", pts, (cx + a, cy), 90.0)
 
 
+def lollipop(cx: float, y0: float, stem: float, spread_deg: float, r: float) -> Line:
+    """A stem up from (cx, y0) into a loop, both of whose legs leave its top spread_deg apart and meet a
+    bulb of radius r: a pen set out up the stem goes round the loop and comes back down the stem, through
+    its start the other way.  Open: the stem's foot is an end."""
+    top = (cx, y0 + stem)
+    half = math.radians(spread_deg / 2)
+    centre = (cx, top[1] + r / math.sin(half))
+    a0, a1 = 90 - spread_deg / 2 - 90, 90 + spread_deg / 2 + 90      # the legs' tangent points on the bulb
+    bulb = tuple((centre[0] + r * math.cos(math.radians(a0 + (a1 - a0) * k / 180)),
+                  centre[1] + r * math.sin(math.radians(a0 + (a1 - a0) * k / 180))) for k in range(181))
+    pts = ((cx, y0), top) + bulb + (top, (cx, y0))
+    return Line(f"lollipop {spread_deg:g} degrees r{r:g}", pts, (cx, y0 + 0.4 * stem), 90.0, closed=False)
+
+
 def sine_wave(x0: float, y0: float, length: float, amplitude: float, wavelength: float) -> Line:
     n = 600
     pts = tuple((x0 + length * k / n, y0 + amplitude * math.sin(2 * math.pi * length * k / n / wavelength))
@@ -151,10 +165,11 @@ LINES = (
     figure_eight(100, 100, 40),
 )
 
-# Corners: vertices turning 30 to 90 degrees, and right angles rounded to a radius (the sweep of --corners).
+# Corners: vertices turning 30 to 120 degrees, and right angles rounded to a radius (the sweep of --corners).
 CORNERS = (
-    *(polygon(100, 100, n, side, ccw) for n in (12, 10, 9, 8, 6, 4) for side in (20, 40) for ccw in (True, False)),
-    *(rounded_rectangle(100, 100, 60, 60, r) for r in (6, 7, 8, 9, 10, 12)),
+    *(polygon(100, 100, n, side, ccw) for n in (12, 10, 9, 8, 6, 5, 4, 3) for side in (20, 40)
+      for ccw in (True, False)),
+    *(rounded_rectangle(100, 100, 60, 60, r) for r in (2, 4, 6, 8, 10, 12)),
 )
 
 

@@ -17,13 +17,14 @@ from __future__ import annotations
 import re
 import sys
 import time
+from pathlib import Path
 from dataclasses import dataclass, field
 from typing import List, Tuple
 
 import pytest
 
 from firmware_build import FIRMWARE, host_library, mcu_image, require_s51
-from follow_lines import Line, circle
+from follow_lines import Line, circle, square
 from plotter_bridge.sim.firmware_core import FirmwareCore
 from plotter_bridge.sim.sheet import SensorRing, Sheet
 
@@ -84,8 +85,8 @@ def host_follow(command: str, sheet: Sheet, start: tuple) -> HostRun:
 
 def s51_follow(command: str, host: HostRun, sample: int = 10):
     """The final status of the FOLLOW image fed the host's sensor bits, how
-    many takes the pen's place was compared with the host's at, and the
-    simulator's clock at each of them."""
+    many takes the pen's place was compared with the host's at, the
+    simulator's clock at each of them, and the stack's deepest use in bytes."""
     changes = [k for k in range(len(host.bits) - 1) if host.bits[k + 1] != host.bits[k]]
     compared = 0
     clocks: List[Tuple[int, int]] = []        # (take, simulator clocks) at the compared takes
@@ -123,28 +124,35 @@ def s51_follow(command: str, host: HostRun, sample: int = 10):
             if status.group(1) != b"Run" or time.monotonic() > deadline:
                 break
             time.sleep(0.2)
-        return status.groups(), compared, clocks
+        sim.stop()
+        image = Path(mcu_image(FOLLOW="1"))
+        stack_start = int(re.search(r"Stack starts at: 0x([0-9a-fA-F]+)",
+                                    image.with_suffix(".mem").read_text()).group(1), 16)
+        return status.groups(), compared, clocks, sim.max_sp() - stack_start + 1
 
 
 STRAIGHT = Line("straight 30 mm", ((20.0, 100.0), (50.0, 100.0)), (20.0, 100.0), 0.0, False)
 
 
 @pytest.mark.parametrize("line, command, state, feed", [
-    (circle(100.0, 100.0, 12.0), "F 6 400 0 280", b"2", 250),                           # home
+    (square(100.0, 100.0, 20.0), "F 6 400 0 280", b"2", 250),                           # home, round 4 corners
     (circle(100.0, 100.0, 12.0, ccw=False), "F 18 400 800 280 120", b"4", 120),       # distance
     (STRAIGHT, "F 0 80 0 280", b"3", 250),                                           # lost at its end
-], ids=["circle r12 ccw home", "circle r12 cw 800 steps at 120 steps/s", "a line's end"])
+], ids=["square 20 ccw home", "circle r12 cw 800 steps at 120 steps/s", "a line's end"])
 def test_the_image_follows_the_sheet_step_for_step_as_the_host_build(line, command, state, feed):
     require_s51()
     sheet = Sheet([line.points], WIDTH)
     host = host_follow(command, sheet, line.start)
-    (mode, x, y, alarm, bits, follow, walked), compared, clocks = s51_follow(command, host)
+    (mode, x, y, alarm, bits, follow, walked), compared, clocks, stack = s51_follow(command, host)
     assert len(host.takes) > 700 and compared > 3
     assert (mode, follow, alarm) == (b"Idle", state, b"0")
     # The same end, by the same number of steps, as the host build.
     assert (int(x), int(y)) == host.takes[-1]
     assert int(walked) == len(host.takes) - 1
     assert int(bits) == host.bits[-1]
+    # The steering's calls (follow_tick, step_towards, add8) under the interrupts: within the 40 bytes
+    # tools/size.py keeps for the stack.
+    assert stack <= 40, stack
     # A step every period of the feed: the main loop always had the next one
     # decided in time (a period it had not would pass without a step).  The
     # interrupt's entry waits for the instruction under way: a few cycles.

@@ -77,11 +77,8 @@ def notch(deg: float) -> int:
     return round(deg / 15) % 24
 
 
-SMOOTH = [line for line in LINES if not line.sharp]
-
-
 @pytest.mark.parametrize("feed", [0, 120, 250])
-@pytest.mark.parametrize("line", SMOOTH, ids=[line.name for line in SMOOTH])
+@pytest.mark.parametrize("line", LINES, ids=[line.name for line in LINES])
 def test_f_follows_a_closed_line_once_round_and_reports_home(core, line, feed):
     sheet = Sheet([line.points], WIDTH)
     gate = round(WIDTH / 2 * SPM)

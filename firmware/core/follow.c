@@ -9,19 +9,38 @@
 #define HALF   (FOLLOW_DIRS / 2)
 #define NONE   0xFF
 
-/* 64 cos(15 degrees * i); sin(i) = cos(i - 6). */
-static const ROM int8_t cos24[FOLLOW_DIRS] = {
-    64, 62, 55, 45, 32, 17, 0, -17, -32, -45, -55, -62,
-    -64, -62, -55, -45, -32, -17, 0, 17, 32, 45, 55, 62
+/* 64 sin(15 degrees * i), a quarter turn more than round: cos(i) = sin(i + 6). */
+static const ROM int8_t sin30[FOLLOW_DIRS + 6] = {
+    0, 17, 32, 45, 55, 62, 64, 62, 55, 45, 32, 17,
+    0, -17, -32, -45, -55, -62, -64, -62, -55, -45, -32, -17,
+    0, 17, 32, 45, 55, 62
 };
-#define COS(i) cos24[i]
-#define SIN(i) cos24[(i) >= 6 ? (i) - 6 : (i) + FOLLOW_DIRS - 6]
+#define SIN(i) sin30[i]
+#define COS(i) sin30[(uint8_t)((i) + 6)]
 
 /* By the black sensors (bit i: sensor i), the direction of the line from
  * the pen: one sensor's own direction, or half way between two (away from
  * the third); none with all or no sensor on black.  Sensors at 90, 210 and
  * 330 degrees are headings 6, 14 and 22. */
 static const ROM uint8_t line_dir[8] = { NONE, 6, 14, 10, 22, 2, 18, NONE };
+
+/* The corner search.  Where the line turns sharper than the steering
+ * can, the pen overshoots and the line falls behind it (CORNER_TRIGGER).
+ * The pen then goes back to the last point where all three sensors read
+ * black, the corner, and sets out from it a right angle to the left of
+ * the heading it had there; a probe that has turned back the way it came
+ * by the end of CORNER_PROBE steps, or loses the line behind it again, is
+ * taken back to the corner and the right tried; after the right, the line
+ * is lost. */
+#define CORNER_TRIGGER 10   /* notches, 150 degrees: the line this far off the heading is behind the pen */
+#define CORNER_SETTLE  10   /* steps off the all-black before the line behind starts a search */
+#define CORNER_PROBE   240  /* steps a probe steers before it is judged */
+#define CORNER_TURN    6    /* a probe's heading from the corner's: a right angle */
+#define CORNER_BACK    5    /* notches: a probe heading this near the way back has turned back */
+
+#define SEARCH_NONE  0
+#define SEARCH_BACK  1      /* going back to the corner */
+#define SEARCH_PROBE 2      /* steering from the corner along a probe's heading */
 
 /* The steering's state.  In the FOLLOW image it lies over the segment
  * queue, which is empty while an F runs: the F is the only command queued
@@ -34,13 +53,20 @@ typedef struct {
     uint8_t armed;        /* the pen has been far enough from the start to come back to it */
     uint8_t behind;       /* the pen was behind the start gate at the last step */
     uint8_t stop;         /* the stop the next tick reports, 0: none */
-    int16_t turn;         /* the steering's error summed, notches x steps, + left */
-    int16_t judge;        /* point-by-point judgement along dir */
+    int8_t turn;          /* the steering's error summed, notches x steps, + left (within +-105) */
+    int8_t judge;         /* point-by-point judgement along dir (within +-64) */
     uint16_t lost;        /* steps since a sensor was last on black */
-    int16_t dx, dy;       /* the pen from the start, in steps */
-    int16_t cx, cy;       /* the pen at the last progress check */
+    int16_t d[2];         /* the pen from the start, in steps: X, Y */
+    int16_t c[2];         /* the pen at the last progress check */
     int32_t along;        /* the pen from the start along the start heading, x 64 */
     int32_t across;       /* ... and across it, x 64, + left */
+    uint32_t gate;        /* the start gate's half width, x 64 */
+    uint8_t search;       /* SEARCH_*: where the corner search is */
+    uint8_t tries;        /* the corner's probes so far */
+    uint8_t corner_heading; /* the heading at the corner: the last point all three sensors read black */
+    uint8_t since;        /* steps since all three read black, up to CORNER_SETTLE */
+    uint8_t probe;        /* the probe's steps left */
+    int16_t o[2];         /* the corner, from the start in steps */
 } steer_t;
 
 #ifdef FOLLOW
@@ -60,13 +86,23 @@ void follow_start(void)
     do {
         *p++ = 0;
     } while (--n);
-    S.heading = S.dir = follow_args.heading;
+    S.heading = S.dir = S.corner_heading = follow_args.heading;
+    S.gate = HAL_MUL16U(follow_args.home_steps, 64);
     f_travelled = 0;
 }
 
 /* A macro, not a function: the functions that use it stay leaves, whose
  * locals SDCC overlays instead of giving them direct RAM of their own. */
 #define ABS16(v) ((v) < 0 ? -(v) : (v))
+
+/* Four bytes from to to: a pen position (int16_t[2]). */
+static void copy4(XDATA uint8_t *to, XDATA uint8_t *from)
+{
+    uint8_t n = 4;
+    do {
+        *to++ = *from++;
+    } while (--n);
+}
 
 /* After a step: every FOLLOW_PROGRESS_STEPS steps the pen must have got at
  * least a quarter as far on, or it is going back and forth where the line
@@ -76,12 +112,11 @@ static void check_progress(void)
     int16_t x, y;
     if ((uint16_t)f_travelled & (FOLLOW_PROGRESS_STEPS - 1))
         return;
-    x = S.dx - S.cx;
-    y = S.dy - S.cy;
+    x = S.d[0] - S.c[0];
+    y = S.d[1] - S.c[1];
     if ((uint16_t)(ABS16(x) + ABS16(y)) < FOLLOW_PROGRESS_STEPS / 4)
         S.stop = FOLLOW_LOST;
-    S.cx = S.dx;
-    S.cy = S.dy;
+    copy4((XDATA uint8_t *)S.c, (XDATA uint8_t *)S.d);
 }
 
 /* After a step: the start gate is the line through the start across the
@@ -93,18 +128,17 @@ static void check_progress(void)
 static void check_home(void)
 {
     uint8_t behind = S.along < 0;
-    uint16_t x = (uint16_t)ABS16(S.dx), y = (uint16_t)ABS16(S.dy);
-    int32_t gate;
-    if (x == 32767 || y == 32767) {
+    uint16_t x = (uint16_t)ABS16(S.d[0]), y = (uint16_t)ABS16(S.d[1]);
+    if (y > x)
+        x = y;                   /* the pen's reach from the start along X or Y */
+    if (x == 32767) {
         S.stop = FOLLOW_LOST;
     } else if (!S.armed) {
-        gate = follow_args.home_steps << 1;
-        if (x > (uint16_t)gate || y > (uint16_t)gate)
+        if (x > follow_args.home_steps << 1)
             S.armed = 1;
     } else if (behind != S.behind) {
         /* -g <= across <= g (g: the gate's half width x 64) as one unsigned comparison */
-        gate = S.across + ((int32_t)follow_args.home_steps << 6);
-        if ((uint32_t)gate <= (uint32_t)follow_args.home_steps << 7)
+        if ((uint32_t)(S.across + S.gate) <= S.gate << 1)
             S.stop = behind ? FOLLOW_REVERSED : FOLLOW_HOME;
     }
     S.behind = behind;
@@ -120,18 +154,124 @@ static uint8_t wrap(int8_t v)
     return (uint8_t)v;
 }
 
+/* Go back to the corner (again), or give up after the second probe.
+ * (tries counts the probes of this corner: only a probe's end that finds
+ * the line again, back to SEARCH_NONE, clears it.) */
+static uint8_t search_begin(void)
+{
+    if (S.tries >= 2)
+        return S.stop = FOLLOW_LOST;
+    S.search = SEARCH_BACK;
+    return 0;
+}
+
+/* The axis heading of the next step back to the corner, a staircase; at
+ * the corner the next probe's heading is set and the answer is NONE. */
+static uint8_t back_heading(void)
+{
+    int16_t x = S.o[0] - S.d[0], y = S.o[1] - S.d[1];
+    int8_t h = 0;
+    if (x || y) {
+        if ((uint16_t)ABS16(x) >= (uint16_t)ABS16(y)) {
+            if (x < 0)
+                h = HALF;
+        } else {
+            h = FOLLOW_DIRS / 4;
+            if (y < 0)
+                h = 3 * FOLLOW_DIRS / 4;
+        }
+        return (uint8_t)h;
+    }
+    h = (int8_t)(S.corner_heading + CORNER_TURN);
+    if (S.tries++)
+        h -= 2 * CORNER_TURN;
+    S.heading = S.dir = wrap(h);
+    S.turn = 0;
+    S.judge = 0;
+    S.search = SEARCH_PROBE;
+    S.probe = CORNER_PROBE;
+    return NONE;
+}
+
+/* *p, a little-endian number of n bytes, plus v: one loop for the
+ * steering's 16- and 32-bit sums, which SDCC would spell out each time
+ * (on the board, hal/mcs51/add8.asm). */
+#ifdef HAL_ADD8
+#define add_to HAL_ADD8
+#else
+static void add_to(XDATA uint8_t *p, int8_t v, uint8_t n)
+{
+    uint8_t ext = v < 0 ? 0xFF : 0;
+    uint16_t sum = (uint8_t)v;
+    do {
+        sum += *p;
+        *p++ = (uint8_t)sum;
+        sum = (sum >> 8) + ext;
+    } while (--n);
+}
+#endif
+
+/* The step along direction target, by point-by-point comparison: a new
+ * direction starts on its major axis, so that steering that swaps between
+ * two directions every step still moves along both. */
+static const ROM uint8_t step_angle[4] = { 0, HALF, FOLLOW_DIRS / 4, 3 * FOLLOW_DIRS / 4 };
+
+static uint8_t step_towards(uint8_t target)
+{
+    int8_t c = COS(target), s = SIN(target);
+    uint8_t ac = (uint8_t)ABS16(c), as = (uint8_t)ABS16(s);
+    uint8_t step, a;
+    if (target != S.dir) {
+        S.dir = target;
+        S.judge = (int8_t)-(ac < as);
+    }
+    if (s == 0 || (c != 0 && S.judge >= 0)) {
+        S.judge -= as;
+        step = FOLLOW_STEP_XP;
+    } else {
+        S.judge += ac;
+        step = FOLLOW_STEP_YP;
+        c = s;
+    }
+    if (c < 0)
+        step++;                  /* FOLLOW_STEP_XN, FOLLOW_STEP_YN */
+    /* A step in direction a (+X, -X, +Y, -Y: 0, 12, 6, 18 notches) moves
+     * the pen cos(a - h) along the start heading h and sin(a - h) across it. */
+    add_to((XDATA uint8_t *)&S.d[step >> 1], (int8_t)((step & 1) ? -1 : 1), 2);
+    a = wrap((int8_t)(step_angle[step] - follow_args.heading));
+    add_to((XDATA uint8_t *)&S.along, COS(a), 4);
+    add_to((XDATA uint8_t *)&S.across, SIN(a), 4);
+    return step;
+}
+
 uint8_t follow_tick(uint8_t black)
 {
-    uint8_t target = S.heading;
+    uint8_t target;
     uint8_t line;
-    int8_t diff = 0;
-    int8_t c, s, ac, as, da, dc, d;
+    uint8_t far;
+    int8_t diff = 0, notch;
 
     if (S.stop)
         return S.stop;
+    if (S.search == SEARCH_BACK) {
+back:
+        target = back_heading();
+        if (target != NONE)
+            goto step;
+    }
+    target = S.heading;
     if (follow_args.max_steps && f_travelled >= follow_args.max_steps)
         return S.stop = FOLLOW_DISTANCE;
     black &= FOLLOW_SENSOR_MASK;
+    if (black == FOLLOW_SENSOR_MASK) {
+        S.since = 0;
+        if (S.search == SEARCH_NONE) {
+            copy4((XDATA uint8_t *)S.o, (XDATA uint8_t *)S.d);
+            S.corner_heading = S.heading;
+        }
+    } else if (S.since < CORNER_SETTLE) {
+        S.since++;
+    }
     if (!black) {
         if (++S.lost >= follow_args.lost_steps)
             return S.stop = FOLLOW_LOST;
@@ -141,70 +281,48 @@ uint8_t follow_tick(uint8_t black)
 
     line = line_dir[black];
     if (line != NONE) {
-        diff = (int8_t)(line - S.heading);
-        if (diff > HALF)
-            diff -= FOLLOW_DIRS;
-        else if (diff <= -HALF)
-            diff += FOLLOW_DIRS;
+        /* line - heading, on the ring as -HALF + 1 .. HALF */
+        diff = (int8_t)(wrap((int8_t)(line - S.heading + HALF - 1)) - (HALF - 1));
+        far = (uint8_t)(diff + CORNER_TRIGGER - 1) > 2 * (CORNER_TRIGGER - 1);
+        if (far && S.since >= CORNER_SETTLE) {
+            if (search_begin())
+                return FOLLOW_LOST;
+            goto back;
+        }
         if (diff == HALF)
             diff = 0;           /* the line straight behind says nothing of which way to turn */
-        target = wrap((int8_t)(S.heading + (diff >= 0 ? diff >> 1 : -((-diff) >> 1))));
+        target = wrap((int8_t)(S.heading + ((int8_t)(diff + (diff < 0)) >> 1)));   /* half, towards 0 */
     }
     /* The heading turns by the steering's error summed over the steps, a
      * notch per FOLLOW_TURN: slower than the steps' own correction, so that
      * a drift is taken out sideways and only a bend of the line turns it. */
-    S.turn += diff;
-    if (S.turn >= FOLLOW_TURN) {
-        S.heading = wrap((int8_t)(S.heading + 1));
-        S.turn -= FOLLOW_TURN;
-    } else if (S.turn <= -FOLLOW_TURN) {
-        S.heading = wrap((int8_t)(S.heading - 1));
-        S.turn += FOLLOW_TURN;
+    diff += S.turn;
+    notch = 0;
+    if (diff >= FOLLOW_TURN) {
+        notch = 1;
+        diff -= FOLLOW_TURN;
+    } else if (diff <= -FOLLOW_TURN) {
+        notch = -1;
+        diff += FOLLOW_TURN;
     }
+    S.turn = diff;
+    S.heading = wrap((int8_t)(S.heading + notch));
 
-    c = COS(target);
-    s = SIN(target);
-    ac = c < 0 ? -c : c;
-    as = s < 0 ? -s : s;
-    if (target != S.dir) {
-        /* A new direction starts on its major axis: steering that swaps
-         * between two directions every step then still moves along both. */
-        S.dir = target;
-        S.judge = ac >= as ? 0 : -1;
-    }
-    /* The step, and what it moves the pen along the start heading and
-     * across it (x 64): with that heading's cosine and sine c0, s0, a step
-     * along +X c0 and -s0, along +Y s0 and c0. */
-    da = COS(follow_args.heading);
-    dc = SIN(follow_args.heading);
-    if (s == 0 || (c != 0 && S.judge >= 0)) {
-        S.judge -= as;
-        line = FOLLOW_STEP_XP;
-        dc = -dc;
-    } else {
-        S.judge += ac;
-        line = FOLLOW_STEP_YP;
-        c = da;                  /* (c0, s0) turned a right angle: (s0, c0) after the sign above */
-        da = dc;
-        dc = c;
-        c = s;
-    }
-    d = 1;
-    if (c < 0) {
-        line++;                  /* FOLLOW_STEP_XN, FOLLOW_STEP_YN */
-        d = -1;
-        da = -da;
-        dc = -dc;
-    }
-    if (line < FOLLOW_STEP_YP)
-        S.dx += d;
-    else
-        S.dy += d;
-    S.along += da;
-    S.across += dc;
-    f_travelled++;
+step:
+    line = step_towards(target);
+    add_to((XDATA uint8_t *)&f_travelled, 1, 4);
     check_progress();
     check_home();
+    /* A probe that ends heading back the way the pen came is the leg it
+     * came on: back to the corner for the next. */
+    if (S.search == SEARCH_PROBE && !--S.probe) {
+        if (wrap((int8_t)(S.heading - S.corner_heading + HALF + CORNER_BACK)) <= 2 * CORNER_BACK) {
+            search_begin();
+        } else {
+            S.search = SEARCH_NONE;
+            S.tries = 0;
+        }
+    }
     return line;
 }
 

@@ -11,7 +11,10 @@
  * summed over the steps reaches FOLLOW_TURN, so on a straight line
  * the pen settles with all three black and the heading along the line.
  * Steps are point-by-point comparison steps, one axis each, along the
- * direction chosen.
+ * direction chosen.  At a corner sharper than the steering can turn, the
+ * line falls behind the pen: it goes back to the last point where all
+ * three sensors read black and tries a right angle to the left, then to
+ * the right (follow.c, the corner search).
  *
  * Plain C, no hardware: one call of follow_tick() per step period with the
  * sensor bits, answering the step to make.  The host build drives it from a

@@ -18,6 +18,8 @@
  *                         fast-path flags a hand-written interrupt keeps
  *   HAL_MUL16U(a, b), HAL_MUL16S(a, b)  the 32-bit product of two 16-bit
  *                         values, unsigned or signed (as uint32_t)
+ *   HAL_ADD8(p, v, n)     optional: *p, a little-endian number of n bytes in
+ *                         XDATA, plus the signed byte v (else follow.c's C loop)
  *   HAL_CRITICAL_BEGIN/END mask interrupts around a multi-byte read
  *   INLINE                a function expanded where used, with no separate copy */
 #ifndef HAL_H

@@ -155,6 +155,11 @@ uint32_t mul16u(uint16_t a, uint16_t b);
 uint32_t mul16s(int16_t a, int16_t b);
 #define HAL_MUL16U(a, b) mul16u(a, b)
 #define HAL_MUL16S(a, b) mul16s(a, b)
+#ifdef FOLLOW
+/* *p, a little-endian number of n bytes in XRAM, plus v: hal/mcs51/add8.asm. */
+void add8(XDATA uint8_t *p, int8_t v, uint8_t n);
+#define HAL_ADD8(p, v, n) add8(p, v, n)
+#endif
 #define HAL_SEGMENT_STARTED(s)
 /* Line following (FOLLOW; the image has no keypad, whose P2 it takes):
  * the three sensors' comparators on P2.0-P2.2, low over black; the follow
