@@ -17,7 +17,6 @@ from __future__ import annotations
 import re
 import sys
 import time
-from pathlib import Path
 from dataclasses import dataclass, field
 from typing import List, Tuple
 
@@ -30,6 +29,7 @@ from plotter_bridge.sim.sheet import SensorRing, Sheet
 
 sys.path.insert(0, str(FIRMWARE / "tools"))
 import s51sim  # noqa: E402
+import size  # noqa: E402
 
 SPM = 80.0
 RING = SensorRing(3.0)
@@ -125,9 +125,7 @@ def s51_follow(command: str, host: HostRun, sample: int = 10):
                 break
             time.sleep(0.2)
         sim.stop()
-        image = Path(mcu_image(FOLLOW="1"))
-        stack_start = int(re.search(r"Stack starts at: 0x([0-9a-fA-F]+)",
-                                    image.with_suffix(".mem").read_text()).group(1), 16)
+        stack_start = size.parse_mem(f"{mcu_image(FOLLOW='1')}.mem")["stack_start"]
         return status.groups(), compared, clocks, sim.max_sp() - stack_start + 1
 
 

@@ -60,7 +60,8 @@ typedef struct {
     int16_t c[2];         /* the pen at the last progress check */
     int32_t along;        /* the pen from the start along the start heading, x 64 */
     int32_t across;       /* ... and across it, x 64, + left */
-    uint32_t gate;        /* the start gate's half width, x 64 */
+    uint32_t gate;        /* the start gate's half width, x 64: worked out once, so that check_home
+                             calls nothing and stays a leaf, its locals overlaid (direct RAM is all but used) */
     uint8_t search;       /* SEARCH_*: where the corner search is */
     uint8_t tries;        /* the corner's probes so far */
     uint8_t corner_heading; /* the heading at the corner: the last point all three sensors read black */
