@@ -4,7 +4,8 @@ Each line is a polyline in mm with where the pen is put on it and the way
 it sets out; tests/test_follow.py runs the firmware's follow mode on them;
 `python tests/follow_lines.py` prints the figures of firmware/README.md
 ("Line following"): sensors 3 mm from the pen, 80 steps/mm; with
-`--corners` the sweep that finds the sharpest corner followed.
+`--corners` the sweep that finds the sharpest corner followed, with
+`--ends` how lines that end are stopped.
 """
 from __future__ import annotations
 
@@ -98,6 +99,14 @@ def sine_wave(x0: float, y0: float, length: float, amplitude: float, wavelength:
     return Line(f"sine wave {length:g} mm", pts, pts[30], 0.0, closed=False)
 
 
+def straight(x0: float, y0: float, heading_deg: float, length: float) -> Line:
+    """A straight line from (x0, y0) the given way, the pen put 3 mm along it: an open line with two ends."""
+    a = math.radians(heading_deg)
+    n = 200
+    pts = tuple((x0 + length * k / n * math.cos(a), y0 + length * k / n * math.sin(a)) for k in range(n + 1))
+    return Line(f"straight {heading_deg:g} degrees", pts, pts[10], heading_deg, closed=False)
+
+
 def with_gap(line: Line, gap_mm: float) -> Tuple[Tuple[Point, ...], ...]:
     """The line as two pieces with a gap of at least gap_mm half way round."""
     pts = line.points
@@ -140,18 +149,26 @@ def main(argv: Sequence[str]) -> int:
     from plotter_bridge.sim.firmware_core import FirmwareCore
     from plotter_bridge.sim.follow import FollowGoal, follow
     from plotter_bridge.sim.sheet import SensorRing, Sheet
-    corners = "--corners" in argv
-    argv = [a for a in argv if a != "--corners"]
+    corners, ends = "--corners" in argv, "--ends" in argv
+    argv = [a for a in argv if a not in ("--corners", "--ends")]
     core = FirmwareCore(argv[0] if argv else None)
     ring = SensorRing(3.0)
-    print("| line | width mm | why it stopped | path / line | most off centre mm |")
-    print("|---|---|---|---|---|")
+    if ends:
+        print("| line | width mm | why it stopped | stop from the end mm |")
+        print("|---|---|---|---|")
+    else:
+        print("| line | width mm | why it stopped | path / line | most off centre mm |")
+        print("|---|---|---|---|---|")
     for width in (7.0, 8.0):
-        for line in CORNERS if corners else LINES:
+        for line in LINE_ENDS if ends else CORNERS if corners else LINES:
             sheet = Sheet([line.points], width)
             goal = FollowGoal(line.heading_deg, gate_mm=width / 2)
             run = follow(core, sheet, ring, line.start, goal, cap_steps=CAP_STEPS)
             trace = run.trace_mm(80.0)
+            if ends:
+                print(f"| {line.name} | {width:g} | {run.reason} | {math.dist(trace[-1], line.points[-1]):.1f} |",
+                      flush=True)
+                continue
             dev = distances(trace[::4], [line.points]).max()
             print(f"| {line.name} | {width:g} | {run.reason} | {path_length(trace) / line.length:.2f} | {dev:.2f} |",
                   flush=True)
@@ -163,6 +180,13 @@ LINES = (
     square(100, 100, 60), square(150, 80, 40, ccw=False),
     rounded_rectangle(100, 100, 80, 50, 10),
     figure_eight(100, 100, 40),
+)
+
+# Lines that end: the pen reaches the end heading every way, sensors not square to it (a sine wave's end
+# slopes), so that the end is met by each sensor first.
+LINE_ENDS = (
+    *(sine_wave(40, 100, length, 10, 80) for length in (100, 120, 140)),
+    *(straight(100, 100, heading, 60) for heading in (0, 55, 100, 125, 200, 270, 325)),
 )
 
 # Corners: vertices turning 30 to 120 degrees, and right angles rounded to a radius (the sweep of --corners).

@@ -28,15 +28,20 @@ static const ROM uint8_t line_dir[8] = { NONE, 6, 14, 10, 22, 2, 18, NONE };
  * can, the pen overshoots and the line falls behind it (CORNER_TRIGGER).
  * The pen then goes back to the last point where all three sensors read
  * black, the corner, and sets out from it a right angle to the left of
- * the heading it had there; a probe that has turned back the way it came
- * by the end of CORNER_PROBE steps, or loses the line behind it again, is
- * taken back to the corner and the right tried; after the right, the line
- * is lost. */
+ * the heading it had there; a probe that turns back the way the pen came,
+ * or loses the line behind it again, within CORNER_PROBE steps is taken
+ * back to the corner and the right tried; after the right, the line is
+ * lost.  The way the pen came is its heading CORNER_AGE to twice that
+ * many steps before the search, not the heading at the corner: at the end
+ * of a line wider than the sensor ring, the steering has already turned
+ * the pen part way round the line's rounded end before the line falls
+ * behind, and a probe back down the line would look like a way on. */
 #define CORNER_TRIGGER 10   /* notches, 150 degrees: the line this far off the heading is behind the pen */
 #define CORNER_SETTLE  10   /* steps off the all-black before the line behind starts a search */
-#define CORNER_PROBE   240  /* steps a probe steers before it is judged */
+#define CORNER_PROBE   2    /* heading samples a probe is watched for turning back: 512 to 1023 steps */
 #define CORNER_TURN    6    /* a probe's heading from the corner's: a right angle */
-#define CORNER_BACK    5    /* notches: a probe heading this near the way back has turned back */
+#define CORNER_BACK    3    /* notches: a heading this near the way back has turned back */
+#define CORNER_AGE     512  /* steps between samples of the heading, a power of two */
 
 #define SEARCH_NONE  0
 #define SEARCH_BACK  1      /* going back to the corner */
@@ -66,8 +71,10 @@ typedef struct {
     uint8_t tries;        /* the corner's probes so far */
     uint8_t corner_heading; /* the heading at the corner: the last point all three sensors read black */
     uint8_t since;        /* steps since all three read black, up to CORNER_SETTLE */
-    uint8_t probe;        /* the probe's steps left */
+    uint8_t probe;        /* the probe's heading samples left */
     int16_t o[2];         /* the corner, from the start in steps */
+    uint8_t came[2];      /* the heading sampled 0 to CORNER_AGE steps ago, and the sample before:
+                             the way the pen came (sampled while no search runs) */
 } steer_t;
 
 #ifdef FOLLOW
@@ -87,7 +94,8 @@ void follow_start(void)
     do {
         *p++ = 0;
     } while (--n);
-    S.heading = S.dir = S.corner_heading = follow_args.heading;
+    /* came[1] takes came[0] at the first tick (f_travelled 0 is a sample) */
+    S.heading = S.dir = S.corner_heading = S.came[0] = follow_args.heading;
     S.gate = HAL_MUL16U(follow_args.home_steps, 64);
     f_travelled = 0;
 }
@@ -129,7 +137,8 @@ static void check_progress(void)
 static void check_home(void)
 {
     uint8_t behind = S.along < 0;
-    uint16_t x = (uint16_t)ABS16(S.d[0]), y = (uint16_t)ABS16(S.d[1]);
+    int16_t sx = S.d[0], sy = S.d[1];  /* read once: ABS16 of S.d[i] would read it twice */
+    uint16_t x = (uint16_t)ABS16(sx), y = (uint16_t)ABS16(sy);
     if (y > x)
         x = y;                   /* the pen's reach from the start along X or Y */
     if (x == 32767) {
@@ -250,10 +259,27 @@ uint8_t follow_tick(uint8_t black)
     uint8_t target;
     uint8_t line;
     uint8_t far;
-    int8_t diff = 0, notch;
+    int8_t diff, notch;
 
     if (S.stop)
         return S.stop;
+    /* A probe heading back the way the pen came is on the leg it came on
+     * (or round the end of the line): back to the corner for the next. */
+    if (S.search == SEARCH_PROBE &&
+        wrap((int8_t)(S.heading - S.came[1] + HALF + CORNER_BACK)) <= 2 * CORNER_BACK)
+        goto search;
+    if (!((uint16_t)f_travelled & (CORNER_AGE - 1))) {
+        if (S.search == SEARCH_PROBE && !--S.probe) {
+            /* a way on: the samples start again from its heading */
+            S.search = SEARCH_NONE;
+            S.tries = 0;
+            S.came[0] = S.heading;
+        }
+        if (S.search == SEARCH_NONE) {
+            S.came[1] = S.came[0];
+            S.came[0] = S.heading;
+        }
+    }
     if (S.search == SEARCH_BACK) {
 back:
         target = back_heading();
@@ -280,12 +306,14 @@ back:
         S.lost = 0;
     }
 
+    diff = 0;                    /* set here, not at the top: not kept across the wrap() above */
     line = line_dir[black];
     if (line != NONE) {
         /* line - heading, on the ring as -HALF + 1 .. HALF */
         diff = (int8_t)(wrap((int8_t)(line - S.heading + HALF - 1)) - (HALF - 1));
         far = (uint8_t)(diff + CORNER_TRIGGER - 1) > 2 * (CORNER_TRIGGER - 1);
         if (far && S.since >= CORNER_SETTLE) {
+search:
             if (search_begin())
                 return FOLLOW_LOST;
             goto back;
@@ -314,16 +342,6 @@ step:
     add_to((XDATA uint8_t *)&f_travelled, 1, 4);
     check_progress();
     check_home();
-    /* A probe that ends heading back the way the pen came is the leg it
-     * came on: back to the corner for the next. */
-    if (S.search == SEARCH_PROBE && !--S.probe) {
-        if (wrap((int8_t)(S.heading - S.corner_heading + HALF + CORNER_BACK)) <= 2 * CORNER_BACK) {
-            search_begin();
-        } else {
-            S.search = SEARCH_NONE;
-            S.tries = 0;
-        }
-    }
     return line;
 }
 
