@@ -38,7 +38,7 @@ static const ROM uint8_t line_dir[8] = { NONE, 6, 14, 10, 22, 2, 18, NONE };
  * behind, and a probe back down the line would look like a way on. */
 #define CORNER_TRIGGER 10   /* notches, 150 degrees: the line this far off the heading is behind the pen */
 #define CORNER_SETTLE  10   /* steps off the all-black before the line behind starts a search */
-#define CORNER_PROBE   2    /* heading samples a probe is watched for turning back: 512 to 1023 steps */
+#define CORNER_PROBE   2    /* heading samples a probe is watched for turning back: 513 to 1024 steps */
 #define CORNER_TURN    6    /* a probe's heading from the corner's: a right angle */
 #define CORNER_BACK    3    /* notches: a heading this near the way back has turned back */
 #define CORNER_AGE     512  /* steps between samples of the heading, a power of two */
