@@ -5,6 +5,7 @@ Without arguments: the default build, firmware/build/.  With build options
 CPU6T="1"), the
 build of those options in its own directory, firmware/build/<options>/.
 """
+import fcntl
 import os
 import shutil
 import subprocess
@@ -35,12 +36,20 @@ def _make_args(options):
     return [f"{k}={v}" for k, v in sorted(options.items()) if v != DEFAULTS.get(k)]
 
 
+def make(*args: str) -> None:
+    """make -C firmware, one at a time on this tree: test processes side by
+    side (pytest-xdist workers) build the same files, generated sources
+    included, and two makes writing one file leave it torn."""
+    with open(FIRMWARE / "Makefile") as lock:
+        fcntl.flock(lock, fcntl.LOCK_EX)
+        subprocess.run(["make", "-s", "-C", str(FIRMWARE), *args], check=True)
+
+
 @lru_cache(maxsize=None)
 def _build(target: str, options: tuple) -> Path:
     opts = dict(options)
     path = build_dir(**opts) / target
-    subprocess.run(["make", "-s", "-C", str(FIRMWARE), *_make_args(opts),
-                    str(path.relative_to(FIRMWARE))], check=True)
+    make(*_make_args(opts), str(path.relative_to(FIRMWARE)))
     return path
 
 

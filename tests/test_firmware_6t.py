@@ -16,13 +16,12 @@ MHz.  Times below are the simulator's, in real seconds:
 Skipped when s51 (Debian package sdcc-ucsim) is missing, except on CI.
 """
 import re
-import subprocess
 import statistics
 import sys
 
 import pytest
 
-from firmware_build import FIRMWARE, QUIET_LATENCY, require_s51, uart_step_delay
+from firmware_build import FIRMWARE, QUIET_LATENCY, mcu_image, require_s51, uart_step_delay
 
 sys.path.insert(0, str(FIRMWARE / "tools"))
 import s51sim  # noqa: E402
@@ -34,16 +33,14 @@ FEED = 1000                           # steps/s: far below what either clock can
 LINE = f"L 2000 0 {FEED}"
 
 
-def build(*options):
+def build(**options):
     require_s51()
-    subprocess.run(["make", "-s", "-C", str(FIRMWARE), *options,
-                    "build/6t/plotter.ihx" if options else "build/plotter.ihx"], check=True)
-    return FIRMWARE / "build" / ("6t/plotter" if options else "plotter")
+    return mcu_image(**options)
 
 
 @pytest.fixture(scope="module")
 def image6t():
-    return build("CPU6T=1")
+    return build(CPU6T="1")
 
 
 def line_pulses(base, clock_hz, tmp):

@@ -34,7 +34,6 @@ import ctypes
 import functools
 import math
 import re
-import subprocess
 import sys
 import time
 from dataclasses import dataclass
@@ -505,9 +504,7 @@ def test_sign_bits_are_the_high_bytes_of_f(options, f, bit):
     """stepper_isr.asm tests the signs of the line's and the arc's F as bits
     LF_SIGN and AF_SIGN, which are bit 7 of their high bytes only where the
     linker put st_lf and st_af: in bit-addressable RAM, at 0x25 and 0x27."""
-    subprocess.run(["make", "-s", "-C", str(FIRMWARE), *(f"{k}={v}" for k, v in options.items()),
-                    "build/6t/plotter.ihx" if options else "build/plotter.ihx"], check=True)
-    base = FIRMWARE / "build" / ("6t/plotter" if options else "plotter")
+    base = mcu_image(**options)
     size = {"_st_lf": 2, "_st_af": 4}[f]
     high = s51sim.Symbols(base)[f] + size - 1
     sign = int(re.search(rf"^{bit}\s*=\s*0x([0-9a-f]+)",

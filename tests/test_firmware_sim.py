@@ -18,7 +18,6 @@ Skipped when s51 (Debian package sdcc-ucsim) is missing, except on CI
 (CI=true), where that is a failure.
 """
 import re
-import subprocess
 import sys
 
 import pytest
@@ -42,8 +41,7 @@ END = (400, -100)
 @pytest.fixture(scope="module")
 def image():
     require_s51()
-    subprocess.run(["make", "-s", "-C", str(FIRMWARE), "build/plotter.ihx"], check=True)
-    return FIRMWARE / "build" / "plotter"
+    return mcu_image()
 
 
 def host_steps():
