@@ -20,21 +20,35 @@ from typing import Callable, List, Optional
 
 from plotter_bridge.sim.trace import read_seq_log, read_trace  # noqa: F401  (for the tests)
 
-# ROS domain ids 1..232 (the last one DDS maps to ports), all but the
-# environment's own: a robot on it is not the tests' to talk to.
-_TAKEN = os.environ.get("ROS_DOMAIN_ID", "")
-_DOMAINS = [d for d in range(1, 233) if str(d) != _TAKEN]
-_next_domain = itertools.count(random.SystemRandom().randrange(len(_DOMAINS)))
+
+def worker_domains() -> List[int]:
+    """The ROS domain ids 1..232 (the last one DDS maps to ports) this process
+    may use: under pytest-xdist a worker has every n-th of them, so that two
+    workers' graphs never meet on one domain."""
+    worker = os.environ.get("PYTEST_XDIST_WORKER", "")
+    count = int(os.environ.get("PYTEST_XDIST_WORKER_COUNT", "") or 1)
+    index = int(worker[2:]) if worker.startswith("gw") else 0
+    return [d for d in range(1, 233) if d % count == index % count]
+
+
+_next_domain = itertools.count(random.SystemRandom().randrange(232))
+_domains: List[int] = []
 
 
 def new_domain() -> int:
     """A ROS domain id for one graph, not the id of any graph before it in
-    this test session (up to 231 of them; then they come round again).
-    Two graphs on one domain hear each other's nodes: picked at random, a
-    test's domain would now and then be that of a graph a module fixture
-    keeps running beside it.  The ids come in turn from a random start, so
-    that two sessions on one machine rarely share one either."""
-    return _DOMAINS[next(_next_domain) % len(_DOMAINS)]
+    this test session (up to 116 of them under two xdist workers; then they
+    come round again), nor the environment's own as the first call finds it
+    (a robot on it is not the tests' to talk to; in a test session it is the
+    session's, tests/conftest.py).  Two graphs on one domain hear each
+    other's nodes: picked at random, a test's domain would now and then be
+    that of a graph a module fixture keeps running beside it.  The ids come
+    in turn from a random start, so that two sessions on one machine rarely
+    share one either."""
+    if not _domains:
+        taken = os.environ.get("ROS_DOMAIN_ID", "")
+        _domains.extend(d for d in worker_domains() if str(d) != taken)
+    return _domains[next(_next_domain) % len(_domains)]
 
 
 def wait_until(predicate: Callable[[], bool], timeout: float = 30.0, what: str = "condition") -> None:
