@@ -40,6 +40,14 @@ def acceptance_dir() -> Path:
     return REPO_ROOT.parent / "shared" / "acceptance" / "linuxcnc"
 
 
+def acceptance_programs(folder: str) -> List[Path]:
+    """The .ngc programs of acceptance_dir()/folder.  Where there are none (the
+    folder is missing), one path that is not there: each test over them then
+    fails reading it, naming where it looked, instead of being skipped as a
+    test over an empty list would be."""
+    return sorted((acceptance_dir() / folder).glob("*.ngc")) or [acceptance_dir() / folder / "(no .ngc here)"]
+
+
 # ------------------------------------------------------- bracket expressions
 
 _TOKEN = re.compile(r"\s*(?:(\d+\.?\d*|\.\d+)|(sqrt)|(.))", re.IGNORECASE)

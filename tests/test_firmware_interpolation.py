@@ -163,9 +163,17 @@ def check_arc(core, x0, y0, x1, y1, cx, cy, cw):
     return pts, steps
 
 
-def test_worked_examples_from_acceptance_readme(core):
-    if core.method != "pbp":
-        pytest.skip("the worked examples are point-by-point comparison's")
+@pytest.fixture(scope="module")
+def pbp_core():
+    """The default build's core: the worked examples are point-by-point comparison's."""
+    c = FirmwareCore(host_library())
+    c.method = "pbp"
+    yield c
+    c.close()
+
+
+def test_worked_examples_from_acceptance_readme(pbp_core):
+    core = pbp_core
     pts, steps = run(core, lambda c: c.plan_line(6, 4))
     assert "".join("X" if s.dx else "Y" for s in steps) == "XYXYXXYXYX"
     # counter-clockwise (4,0) -> (0,4) about (0,0)

@@ -17,7 +17,7 @@ from plotter_bridge.cli import main as cli  # noqa: E402
 from plotter_bridge.gcode.parser import (GCodeError, check_limits, load_program, parse,  # noqa: E402
                                   to_steps)
 
-LINUXCNC_BAD = sorted((lib.acceptance_dir() / "bad").glob("*.ngc"))
+LINUXCNC_BAD = lib.acceptance_programs("bad")
 
 # Our wording for each LinuxCNC message of shared/acceptance/linuxcnc/bad.
 LINUXCNC_REASONS = {

@@ -47,7 +47,6 @@ from gcode_bad_corpus import CORPUS  # noqa: E402
 
 from plotter_bridge.cli import main as cli  # noqa: E402
 
-ACCEPTANCE = lib.acceptance_dir()
 OWN_PROGRAMS = sorted((lib.DATA_DIR / "oracle").glob("*.ngc"))
 RAPID_RATE = 3000.0
 DEBIAN_PACKAGES = ("linuxcnc-uspace", "libboost-python1.74.0")
@@ -63,10 +62,6 @@ LIBRARY_PACKAGES = {
 }
 PREFIX = "G0 Z1\n"
 RUN_LOCK = Path(tempfile.gettempdir()) / "plotter-rs274.lock"
-
-
-def acceptance_files(folder: str) -> List[Path]:
-    return sorted((ACCEPTANCE / folder).glob("*.ngc"))
 
 
 # ------------------------------------------------------------------ rs274
@@ -331,7 +326,7 @@ def test_oracle_is_available(rs274):
     assert result.ok and any(name == "SET_G92_OFFSET" for name, _ in result.calls)
 
 
-@pytest.mark.parametrize("path", acceptance_files("good"), ids=lambda p: p.name)
+@pytest.mark.parametrize("path", lib.acceptance_programs("good"), ids=lambda p: p.name)
 def test_rs274_reproduces_expected_calls(rs274, path):
     """The oracle itself: rs274 gives LinuxCNC's recorded answer for good/*.ngc."""
     expected = [re.sub(r"^\s*\d+\s+", "", line).strip() for line in
@@ -345,7 +340,7 @@ def test_rs274_reproduces_expected_calls(rs274, path):
     assert arc_got == arc_expected
 
 
-@pytest.mark.parametrize("path", acceptance_files("good"), ids=lambda p: p.name)
+@pytest.mark.parametrize("path", lib.acceptance_programs("good"), ids=lambda p: p.name)
 def test_good_programs_match_oracle(rs274, path, tmp_path):
     text = lib.substitute_expressions(path.read_text())
     original = rs274.run(path)
@@ -356,7 +351,7 @@ def test_good_programs_match_oracle(rs274, path, tmp_path):
     assert [m["type"] for m in ours] == ["arc"]
 
 
-@pytest.mark.parametrize("path", acceptance_files("quick"), ids=lambda p: p.name)
+@pytest.mark.parametrize("path", lib.acceptance_programs("quick"), ids=lambda p: p.name)
 def test_quick_programs_match_oracle(rs274, path, tmp_path):
     ours = compare(rs274, path.read_text(), tmp_path, path.name)
     assert ours
@@ -380,7 +375,7 @@ BAD_REASONS = {
 }
 
 
-@pytest.mark.parametrize("path", acceptance_files("bad"), ids=lambda p: p.name)
+@pytest.mark.parametrize("path", lib.acceptance_programs("bad"), ids=lambda p: p.name)
 def test_bad_programs_rejected_by_both(rs274, path, tmp_path):
     text = path.read_text()
     expected = lib.expected_message(text)
