@@ -46,7 +46,14 @@ add_source_packages_to_path()
 def _setup_ros_environment():
     # Own DDS domain per test session (unless one was chosen), discovery on
     # loopback only. Set before rclpy is imported, inherited by subprocesses.
-    os.environ.setdefault("ROS_DOMAIN_ID", str(1 + os.getpid() % 100))
+    # An xdist worker always takes one of its own share: the one it inherits
+    # is its controller's, the same for every worker.
+    from node_processes import worker_domains
+    domains = worker_domains()
+    own = str(domains[os.getpid() % len(domains)])
+    if os.environ.get("PYTEST_XDIST_WORKER"):
+        os.environ["ROS_DOMAIN_ID"] = own
+    os.environ.setdefault("ROS_DOMAIN_ID", own)
     os.environ.setdefault("ROS_AUTOMATIC_DISCOVERY_RANGE", "LOCALHOST")
 
 
@@ -150,3 +157,46 @@ def colours(tmp_path):
     path = tmp_path / "colours.svg"
     path.write_text(COLOURS_SVG)
     return str(path)
+
+
+# ------------------------------------------------ the suite's own bookkeeping
+
+# The only reasons a test may skip in a whole run (scripts/test.sh): a skip
+# for any other reason is a check that silently did not happen, and fails.
+# None today: a check that applies to one build is written for that build.
+EXPECTED_SKIPS: tuple = ()
+
+
+def pytest_addoption(parser):
+    parser.addoption("--stage-report", default="",
+                     help="write the run's outcome counts and skips as JSON to this file (scripts/test_stages.py)")
+
+
+@pytest.hookimpl(hookwrapper=True)
+def pytest_runtest_makereport(item, call):
+    """Under PLOTTER_STRICT_SKIPS=1 a skip whose reason is not one of
+    EXPECTED_SKIPS is turned into a failure that names the reason."""
+    outcome = yield
+    report = outcome.get_result()
+    if (os.environ.get("PLOTTER_STRICT_SKIPS") != "1" or not report.skipped
+            or hasattr(report, "wasxfail")):
+        return
+    reason = str(report.longrepr[2]) if isinstance(report.longrepr, tuple) else str(report.longrepr)
+    if not any(expected in reason for expected in EXPECTED_SKIPS):
+        report.outcome = "failed"
+        report.longrepr = f"skipped, and this run allows no skip for that reason: {reason}"
+
+
+def pytest_terminal_summary(terminalreporter, exitstatus, config):
+    path = config.getoption("--stage-report")
+    if not path or hasattr(config, "workerinput"):
+        return
+    import json
+    stats = terminalreporter.stats
+    counts = {key: len(stats.get(key, ()))      # as pytest's own summary line counts them
+              for key in ("failed", "passed", "skipped", "xfailed", "xpassed", "error", "deselected")}
+    skips = []
+    for report in stats.get("skipped", ()):
+        reason = report.longrepr[2] if isinstance(report.longrepr, tuple) else str(report.longrepr)
+        skips.append({"test": report.nodeid, "reason": str(reason)})
+    Path(path).write_text(json.dumps({"counts": counts, "skips": skips, "exitstatus": int(exitstatus)}))
