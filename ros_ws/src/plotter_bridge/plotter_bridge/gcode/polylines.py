@@ -51,23 +51,31 @@ def program_polylines(text: str, start: Point = (0.0, 0.0), options=None) -> Lis
 
 class SegmentGrid:
     """Segments bucketed by cell, for fast nearest checks: near(p, tol) is
-    exact for tol up to the cell size."""
+    exact for tol up to the cell size.  A cell keeps each segment as its
+    start, direction and 1/length², so that a question costs a few
+    multiplications per segment near it (the line-following sheet asks three
+    a step)."""
 
     def __init__(self, polylines: Sequence[Polyline], cell: float = 5.0) -> None:
         self.cell = cell
         self.cells: dict = {}
         for line in polylines:
             for a, b in zip(line, line[1:]):
+                dx, dy = b[0] - a[0], b[1] - a[1]
+                l2 = dx * dx + dy * dy
+                seg = (a[0], a[1], dx, dy, 1.0 / l2 if l2 else 0.0)
                 for i in range(int(min(a[0], b[0]) // cell) - 1, int(max(a[0], b[0]) // cell) + 2):
                     for j in range(int(min(a[1], b[1]) // cell) - 1, int(max(a[1], b[1]) // cell) + 2):
-                        self.cells.setdefault((i, j), []).append((a, b))
+                        self.cells.setdefault((i, j), []).append(seg)
 
     def near(self, p: Point, tol: float) -> bool:
         px, py = p
-        for (x0, y0), (x1, y1) in self.cells.get((int(px // self.cell), int(py // self.cell)), ()):
-            dx, dy = x1 - x0, y1 - y0
-            l2 = dx * dx + dy * dy
-            t = 0.0 if l2 == 0 else max(0.0, min(1.0, ((px - x0) * dx + (py - y0) * dy) / l2))
-            if math.hypot(px - x0 - t * dx, py - y0 - t * dy) <= tol:
+        tol2 = tol * tol
+        for x0, y0, dx, dy, inv_l2 in self.cells.get((int(px // self.cell), int(py // self.cell)), ()):
+            ex, ey = px - x0, py - y0
+            t = (ex * dx + ey * dy) * inv_l2
+            t = 0.0 if t < 0.0 else (1.0 if t > 1.0 else t)
+            ex, ey = ex - t * dx, ey - t * dy
+            if ex * ex + ey * ey <= tol2:
                 return True
         return False

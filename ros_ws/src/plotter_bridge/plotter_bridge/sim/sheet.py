@@ -62,7 +62,7 @@ class Sheet:
         if not self.lines:
             raise SheetError("the sheet has no lines")
         self.width_mm = width_mm
-        self._grid = SegmentGrid(self.lines, cell=max(1.0, width_mm))
+        self._grid = SegmentGrid(self.lines, cell=max(0.5, width_mm / 2))  # the smallest exact for black()
 
     @classmethod
     def from_gcode(cls, path: str, width_mm: float) -> "Sheet":
