@@ -7,6 +7,7 @@ from __future__ import annotations
 from typing import Callable, List, Optional
 
 import rclpy
+from rclpy._rclpy_pybind11 import RCLError
 from rclpy.exceptions import ParameterException
 from rclpy.executors import ExternalShutdownException, MultiThreadedExecutor
 from rclpy.node import Node
@@ -37,19 +38,29 @@ def run_node(make: Callable[[], Node], name: str, args: Optional[List[str]] = No
     executor: Optional[MultiThreadedExecutor] = None
     retry_late_answers()
     try:
-        node = make()
-        executor = MultiThreadedExecutor(num_threads=threads)
-        executor.add_node(node)
-        # In steps, not one spin(): rclpy wakes a waiting spin() on Ctrl-C with a guard condition, and
-        # a node beside CPU-bound processes once sat 15 s in that wait after SIGINT.  Coming back to
-        # Python every SPIN_STEP_S lets the KeyboardInterrupt Python has pending be raised here.
-        while spin_step(executor, SPIN_STEP_S):
-            pass
+        try:
+            node = make()
+            executor = MultiThreadedExecutor(num_threads=threads)
+            executor.add_node(node)
+            # In steps, not one spin(): rclpy wakes a waiting spin() on Ctrl-C with a guard condition,
+            # and a node beside CPU-bound processes once sat 15 s in that wait after SIGINT.  Coming
+            # back to Python every SPIN_STEP_S lets the KeyboardInterrupt Python has pending be raised
+            # here.
+            while spin_step(executor, SPIN_STEP_S):
+                pass
+        except (ValueError, ParameterException, RCLError) as exc:
+            if not rclpy.ok():
+                # Ctrl-C while the node was being made: rclpy's handler shut the context down under
+                # it, and making the next entity failed for that (ValueError from an action server,
+                # RCLError from the rest), not for a parameter.  Python's KeyboardInterrupt of the
+                # same Ctrl-C may still come, in here: the outer handler takes it.
+                return EXIT_OK
+            if isinstance(exc, RCLError):
+                raise
+            rclpy.logging.get_logger(name).fatal(f"bad parameter: {exc}")
+            return EXIT_BAD_PARAMETER
     except (KeyboardInterrupt, ExternalShutdownException):
         pass
-    except (ValueError, ParameterException) as exc:
-        rclpy.logging.get_logger(name).fatal(f"bad parameter: {exc}")
-        return EXIT_BAD_PARAMETER
     finally:
         if executor is not None:
             shutdown_after_callbacks(executor)
