@@ -167,6 +167,24 @@ def colours(tmp_path):
 EXPECTED_SKIPS: tuple = ()
 
 
+# The longest files first: scripts/test_stages.py hands a file to a worker as
+# one lot (its module fixtures are made once), and the stage lasts until the
+# last lot ends, so a long one taken last would leave the other core idle.
+# The figures of docs/testing.md, longest first; the other files follow in
+# their own order.
+LONGEST_FILES = (
+    "test_firmware_panel.py", "test_firmware_isr_share.py", "test_firmware_asm_equivalence.py",
+    "test_firmware_plan_cost.py", "test_firmware_preemption.py", "test_firmware_interpolation.py",
+    "test_follow.py", "test_generator_corpus.py", "test_real_programs.py", "test_follow_command.py",
+    "test_arcfit.py", "test_gcode_oracle.py", "test_firmware_follow.py",
+)
+
+
+def pytest_collection_modifyitems(session, config, items):
+    rank = {name: i for i, name in enumerate(LONGEST_FILES)}
+    items.sort(key=lambda item: rank.get(item.path.name, len(rank)))
+
+
 def pytest_addoption(parser):
     parser.addoption("--stage-report", default="",
                      help="write the run's outcome counts and skips as JSON to this file (scripts/test_stages.py)")
