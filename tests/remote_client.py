@@ -4,6 +4,7 @@ and prints what it saw as one JSON line. Used by test_fleet.py inside a network
 namespace."""
 import argparse
 import json
+import math
 import sys
 import time
 
@@ -33,7 +34,8 @@ def main() -> int:
     latched = QoSProfile(depth=1, reliability=ReliabilityPolicy.RELIABLE, durability=DurabilityPolicy.TRANSIENT_LOCAL)
     node.create_subscription(BoardState, "state", lambda m: states.append((time.monotonic(), m.state, m.queue_free)),
                              latched)
-    node.create_subscription(PointStamped, "position", lambda m: positions.append((m.point.x * 1000, m.point.y * 1000)), 10)
+    node.create_subscription(PointStamped, "position",
+                             lambda m: positions.append((m.point.x * 1000, m.point.y * 1000)), 10)
     draw = ActionClient(node, DrawShape, "draw")
     executor = SingleThreadedExecutor()
     executor.add_node(node)
@@ -61,8 +63,9 @@ def main() -> int:
         r = result.result().result if result.done() else None
         report["drawn"] = bool(r and r.success)
         report["message"] = r.message if r else "no result"
-        settle = time.monotonic() + 0.5            # the last position report after the result
-        wait(lambda: time.monotonic() > settle)
+        if r is not None and r.success:
+            # The board's report of the pen where the job ended may come after the result.
+            wait(lambda: bool(positions) and math.dist(positions[-1], (r.x_mm, r.y_mm)) < 1e-6)
         report["positions"] = len(positions)
         report["last"] = positions[-1] if positions else None
         return 0 if report["drawn"] else 1

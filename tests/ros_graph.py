@@ -30,6 +30,24 @@ def distance_to_segment(p, seg) -> float:
     return math.hypot(px - (x0 + t * dx), py - (y0 + t * dy))
 
 
+# Reports at one position that show a holding board at rest: a status poll comes every
+# 1/status_hz s, longer than a step takes at the slowest rate a hold brakes down to.
+HELD_REPORTS = 3
+
+
+def held_still(reports, trace_path) -> bool:
+    """Whether a board in feed hold has come to rest: its last reports, (state, x_steps,
+    y_steps) each, at least HELD_REPORTS of them, are all HOLD at one position, and its step
+    trace ends there.  A hold brakes along the path first (`!!`), for as long as the speed
+    it was at takes; the trace shows every step once the board has stopped stepping."""
+    from plotter_interfaces.msg import BoardState
+    last = list(reports)[-HELD_REPORTS:]
+    if len(last) < HELD_REPORTS or any(r != (BoardState.HOLD, *last[-1][1:]) for r in last):
+        return False
+    trace = read_trace(trace_path)
+    return bool(trace) and tuple(trace[-1][1:]) == tuple(last[-1][1:])
+
+
 class Probe:
     """A node in the test process spinning in a thread."""
 
@@ -130,6 +148,23 @@ def watched_graph(workdir, **graph_args):
         g.probe.close()
         codes = g.close()
     assert all(c == 0 for c in codes), codes
+
+
+@contextlib.contextmanager
+def board_reports(domain: int, namespace: str = "/plotter"):
+    """A probe keeping every <namespace>/state as (state, x_steps, y_steps), in a list it
+    yields (appended to from the probe's thread); for tests that watch a graph some other way."""
+    from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
+    from plotter_interfaces.msg import BoardState
+    probe = Probe(domain, namespace)
+    reports = []
+    latched = QoSProfile(depth=1, reliability=ReliabilityPolicy.RELIABLE, durability=DurabilityPolicy.TRANSIENT_LOCAL)
+    probe.node.create_subscription(BoardState, "state", lambda m: reports.append((m.state, m.x_steps, m.y_steps)),
+                                   latched)
+    try:
+        yield reports
+    finally:
+        probe.close()
 
 
 def last_state(graph):

@@ -3,13 +3,15 @@ and a step trace held against them: whole, cut short, astray or too long."""
 from __future__ import annotations
 
 import re
+from typing import List
 
 import pytest
 
 from firmware_build import host_library
 from plotter_bridge.motion.compiler import StreamerConfig, compile_program
-from plotter_bridge.sim.expected import drawn_whole, program_steps, step_positions
+from plotter_bridge.sim.expected import Point, drawn_whole, program_steps, step_positions
 from plotter_shapes.geometry import SEED_FIGURES, goal_program
+from reliability_sim import SimRig
 
 CONFIG = StreamerConfig()       # config/plotter.yaml's values: 80 steps/mm
 
@@ -48,9 +50,31 @@ def test_a_seed_figure_takes_the_compiled_steps_to_its_end(fig):
     assert all(abs(b[0] - a[0]) + abs(b[1] - a[1]) == 1 for a, b in zip(path, path[1:]))
 
 
+def board_trace(text: str) -> List[Point]:
+    """The steps the board takes for a program streamed to it as serial_bridge
+    streams a job: the board session over a serial line into the firmware core,
+    on simulated time, the core's main loop taking each command as its queue
+    frees.  Another way to the core than step_positions' own feeding of it."""
+    commands = [c.text for c in compile_program(text, CONFIG, (0, 0))]
+    rig = SimRig(library=host_library())
+    try:
+        rig.connect()
+        job = rig.start(commands)
+        assert rig.run_until(lambda: job.result is not None, 600), "the job did not end"
+        assert job.result.success, job.result
+        return [(x, y) for _, x, y in rig.port.steps]
+    finally:
+        rig.close()
+
+
 def test_the_whole_drawing_passes():
-    steps = program_steps(CAR, CONFIG, (0, 0), host_library())
-    assert drawn_whole(list(steps), steps, (0, 0), 80.0) == ""
+    expected = program_steps(CAR, CONFIG, (0, 0), host_library())
+    drawn = board_trace(CAR)
+    assert drawn_whole(drawn, expected, (0, 0), 80.0) == ""
+    # The same trace a step short, or with a step astray, is not the whole drawing.
+    assert drawn_whole(drawn[:-1], expected, (0, 0), 80.0).startswith(f"the board stepped {len(drawn) - 1} of ")
+    astray = drawn[:5000] + [(drawn[5000][0] + 1, drawn[5000][1])] + drawn[5001:]
+    assert drawn_whole(astray, expected, (0, 0), 80.0).startswith("the board left the path at step 5001 of ")
 
 
 def test_a_drawing_cut_short_says_how_far_it_got_and_where_it_stopped():

@@ -24,6 +24,7 @@ import pytest
 
 from firmware_build import FIRMWARE, host_library, mcu_image, require_s51
 from follow_lines import Line, circle, square
+from node_processes import wait_until
 from plotter_bridge.sim.firmware_core import FirmwareCore
 from plotter_bridge.sim.sheet import SensorRing, Sheet
 
@@ -175,11 +176,16 @@ def test_the_follow_key_on_p2_3_starts_a_follow_once_held_for_its_passes():
         print(f"follow key: {debounce_ms:.1f} ms from the press to the follow queued (200 passes at rest)")
         assert 1.0 <= debounce_ms <= 100.0
         sim.go()
-        time.sleep(1.0)
-        sim.write(b"?")
-        status = STATUS.search(sim.read_until(rb"<[^>]*>"))
-        assert status, "no status report"
-        mode, x, y, alarm, bits, follow, walked = status.groups()
+        reports = []
+
+        def stepped() -> bool:
+            # Asked until a step is decided: the simulator runs at the pace the machine allows.
+            sim.write(b"?")
+            reports.append(STATUS.search(sim.read_until(rb"<[^>]*>")))
+            assert reports[-1], "no status report"
+            return int(reports[-1].group(7)) > 0
+        wait_until(stepped, 60, "the follow's first step")
+        mode, x, y, alarm, bits, follow, walked = reports[-1].groups()
         # All three on black: the line's way is unknown, so it keeps the heading, 0 (+X).
         assert (mode, follow, bits, alarm) == (b"Run", b"1", b"7", b"0")
         # X counts the steps taken, W those decided: one may be in the mailbox, one in the pulse.

@@ -5,6 +5,7 @@ line where the tolerance cannot be held is refused and nothing moves."""
 import math
 import threading
 import time
+from typing import Sequence, Tuple
 
 import pytest
 
@@ -60,6 +61,8 @@ def test_hanging_circle_through_the_graph_stays_within_a_tenth_of_a_millimetre(t
         start = next(k for k, p in enumerate(pen) if math.hypot(p[0] - 650, p[1] - 500) < 0.05)
         worst = max(abs(math.hypot(x - 400, y - 500) - 250) for x, y in pen[start:])
         assert worst <= 0.1, worst
+        # All the way round, too: a circle ends where it starts, drawn or not.
+        assert largest_gap_deg(pen[start:], (400, 500)) < 0.5
         with lock:
             assert positions and math.hypot(positions[-1][0] - 650, positions[-1][1] - 500) < 0.05
         wait_until(lambda: bool(planned), 10, "/plotter/planned_path")
@@ -90,6 +93,12 @@ def test_hanging_circle_through_the_graph_stays_within_a_tenth_of_a_millimetre(t
     finally:
         probe.close()
         graph.close()
+
+
+def largest_gap_deg(points: Sequence[Tuple[float, float]], centre: Tuple[float, float]) -> float:
+    """The widest angle round `centre` that none of the points lies in."""
+    angles = sorted(math.degrees(math.atan2(y - centre[1], x - centre[0])) for x, y in points)
+    return max(b - a for a, b in zip(angles, angles[1:] + [angles[0] + 360.0]))
 
 
 def read_trace_floats(path):

@@ -144,5 +144,6 @@ def test_plotter_home_on_a_running_graph(tmp_path):
         wait_until(lambda: graph.trace.exists() and graph.trace.stat().st_size > 0, 10, "the trace")
         steps = [(x, y) for _, x, y in read_trace(graph.trace)]
         assert min(x for x, _ in steps) == -360 and min(y for _, y in steps) == -160
+        assert steps[-1] == (-200, 0), "the carriage rests the pull-off from each switch"
     finally:
         graph.close()

@@ -16,7 +16,9 @@ import subprocess
 import sys
 import threading
 import time
+from contextlib import contextmanager
 from pathlib import Path
+from typing import Iterator
 
 import pytest
 
@@ -110,6 +112,10 @@ class Job:
         self.commands = program_commands(self.text, self.start)
         self.seq_before = len(read_seq_log(g.seq_log))
 
+    def started(self, g) -> int:
+        """Commands of this job the board has started (its sequence log)."""
+        return len(read_seq_log(g.seq_log)) - self.seq_before
+
     def check_drawn_exactly(self, g) -> None:
         wait_until(lambda: len(read_seq_log(g.seq_log)) - self.seq_before >= len(self.commands), 60,
                    "every command on the board")
@@ -131,9 +137,18 @@ def _run_goal(g, text: str):
     return handle.get_result_async()
 
 
-def _frozen(proc: subprocess.Popen, seconds: float) -> None:
+# Commands of the job the board has started before a process is frozen: the job is under way,
+# with most of its 40-odd commands still to come.
+UNDER_WAY = 3
+
+
+@contextmanager
+def _frozen(proc: subprocess.Popen, seconds: float) -> Iterator[None]:
+    """The process stopped (SIGSTOP) for `seconds`, then let go; the `with` body runs at
+    the start of the freeze, to record what was done by then."""
     os.kill(proc.pid, signal.SIGSTOP)
     try:
+        yield
         time.sleep(seconds)
     finally:
         os.kill(proc.pid, signal.SIGCONT)
@@ -145,8 +160,11 @@ def test_a_node_frozen_mid_job_and_the_drawing_completes_exactly(graph, node, se
     t0 = time.monotonic()
     result = _run_goal(graph, job.text)
     wait_until(lambda: _running_since(graph, t0), 30, "RUNNING")
-    time.sleep(1.5)
-    _frozen(getattr(graph, node).proc, seconds)
+    wait_until(lambda: job.started(graph) >= UNDER_WAY, 60, f"{UNDER_WAY} of the job's commands on the board")
+    with _frozen(getattr(graph, node).proc, seconds):
+        started, finished = job.started(graph), result.done()
+    assert not finished and started < len(job.commands), \
+        f"the job was over when the freeze began: {started} of {len(job.commands)} commands started"
     wait_until(result.done, 120, "the job's result")
     res = result.result().result
     assert res.success, res.message
@@ -162,8 +180,11 @@ def test_the_plotter_client_frozen_mid_job_and_the_drawing_completes_exactly(gra
                               stderr=subprocess.PIPE, text=True, env=graph.env)
     try:
         wait_until(lambda: _running_since(graph, t0), 60, "RUNNING")
-        time.sleep(1.5)
-        _frozen(client, 10.0)
+        wait_until(lambda: job.started(graph) >= UNDER_WAY, 60, f"{UNDER_WAY} of the job's commands on the board")
+        with _frozen(client, 10.0):
+            started, ended = job.started(graph), client.poll() is not None
+        assert not ended and started < len(job.commands), \
+            f"the job was over when the freeze began: {started} of {len(job.commands)} commands started"
         out, err = client.communicate(timeout=120)
     finally:
         if client.poll() is None:

@@ -7,6 +7,7 @@ the client's reply reader yet when the answer goes out); here rmw's timeout is
 played by a send that times out a given number of times first, warning as
 rclpy 7.1.6 does, and then really sends.
 """
+import threading
 import warnings
 
 import pytest
@@ -138,9 +139,18 @@ def test_a_goal_whose_answer_never_goes_out_is_not_run(graph, monkeypatch):
     from plotter_interfaces.action import RunProgram
     client, ran = graph
     raw = _raw(_rclpy.ActionServer.send_goal_response)
-    monkeypatch.setattr(_rclpy.ActionServer, "send_goal_response",
-                        patient(_lossy(raw, 10**9), "goal answer", True, patience=0.3))
+    answer = patient(_lossy(raw, 10**9), "goal answer", True, patience=0.3)
+    gave_up = threading.Event()
+
+    def send_goal_response(handle, *args):
+        try:
+            return answer(handle, *args)
+        finally:
+            gave_up.set()
+    monkeypatch.setattr(_rclpy.ActionServer, "send_goal_response", send_goal_response)
     sent = client.send_goal_async(RunProgram.Goal(name="unanswered"))
+    # The server is done with the goal (its answer lost) before the check that nothing comes of it.
+    wait_until(gave_up.is_set, 30.0, "the server to give up on the goal's answer")
     with pytest.raises(TimeoutError):
         wait_until(sent.done, 2.0, "an answer")
     assert ran == [], "a goal ran whose client was never told it was accepted"

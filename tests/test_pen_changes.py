@@ -158,40 +158,50 @@ def test_the_board_s_pause_resume_key_goes_on_after_a_pen_change(rig):
 # ------------------------------------------------------------ the plotter command's prompt
 
 def test_the_prompt_asks_once_per_change_and_goes_on_or_gives_up():
+    import contextlib
     import io
-    import threading
-    import time
+    from typing import Callable
+    from node_processes import wait_until
     from plotter_bridge.cli.pens import PenPrompt, watch_session
     went, gave_up = [], []
     err = io.StringIO()
     answers = iter([True, False])
     prompt = PenPrompt(err, lambda: (went.append(1), (True, "ok"))[1], ask=lambda: next(answers),
                        give_up=lambda: gave_up.append(1))
-    state = {"at": (0, 'layer 2 "red" #ff0000')}
-    stop = watch_session(prompt, lambda: state["at"], period=0.01)
+    state = {"at": (0, 'layer 2 "red" #ff0000'), "polls": 0}
+
+    def waiting():
+        state["polls"] += 1
+        return state["at"]
+
+    def polled(times: int) -> Callable[[], bool]:
+        """True once the watch has read the state `times` times after now."""
+        seen = state["polls"]
+        return lambda: state["polls"] >= seen + times
+    stop = watch_session(prompt, waiting, period=0.01)
     try:
-        deadline = time.monotonic() + 10
-        while not went and time.monotonic() < deadline:
-            time.sleep(0.01)
-        time.sleep(0.1)                               # the same change, seen again and again: asked once
+        wait_until(lambda: went, 10, "the job to go on")
+        wait_until(polled(10), 10, "the same change seen again")      # and again: asked once
         assert went == [1] and prompt.changes == 1
         state["at"] = None
-        time.sleep(0.05)
+        wait_until(polled(1), 10, "the change seen over")
         state["at"] = (1, 'layer 3 "blue" #0000ff')
-        deadline = time.monotonic() + 10
-        while not gave_up and time.monotonic() < deadline:
-            time.sleep(0.01)
+        with contextlib.suppress(TimeoutError):
+            wait_until(lambda: gave_up, 10, "the job to give up")
         assert gave_up == [1] and went == [1], "no answer: canceled there, not gone on"
     finally:
         stop.set()
     said = err.getvalue()
     assert 'put in layer 2 "red" #ff0000, then press Enter' in said and "no one to change the pen" in said
-    quiet = PenPrompt(io.StringIO(), lambda: (went.append(2), (True, "ok"))[1])
+    # Without anyone to ask (--no-pen-wait): said once, and the job goes on once.
+    told = io.StringIO()
+    quiet = PenPrompt(told, lambda: (went.append(2), (True, "ok"))[1])
     quiet.at(0, "pen 2")
-    deadline = time.monotonic() + 10
-    while 2 not in went and time.monotonic() < deadline:
-        time.sleep(0.01)
-    assert 2 in went and threading.active_count() >= 1
+    quiet.at(0, "pen 2")
+    with contextlib.suppress(TimeoutError):
+        wait_until(lambda: 2 in went, 10, "the quiet prompt to go on")
+    assert went == [1, 2] and quiet.changes == 1
+    assert told.getvalue() == "pen change: pen 2 (not waited for: --no-pen-wait)\n"
 
 
 def test_an_emergency_stop_at_a_pen_change_ends_the_job_there(rig):

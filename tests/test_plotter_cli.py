@@ -88,6 +88,12 @@ def test_stream_on_the_hanging_machine(tmp_path):
     rows = trace.read_text().splitlines()[1:]
     x, y = (float(v) / 80 for v in rows[-1].split(",")[1:])   # pen mm times steps_per_mm
     assert math.hypot(x - 500, y - 300) < 0.05
+    # The circle drawn from the line's end all the way round, not only ended where it starts.
+    from test_hanging_graph import largest_gap_deg
+    pen = [tuple(float(v) / 80 for v in row.split(",")[1:]) for row in rows]
+    start = next(k for k, (px, py) in enumerate(pen) if math.hypot(px - 500, py - 300) < 0.05)
+    assert max(abs(math.hypot(px - 400, py - 300) - 100) for px, py in pen[start:]) <= 0.1
+    assert largest_gap_deg(pen[start:], (400, 300)) < 0.5
 
 
 def test_stream_with_a_z_axis_on_the_mock_board(tmp_path):

@@ -20,6 +20,9 @@ from node_processes import new_domain, read_seq_log
 pytestmark = pytest.mark.ros
 
 STEPS_PER_MM = 80.0
+# Commands of a job the board has started before a fault is made: the job is under way, with most
+# of its 30-50 commands still to come.
+UNDER_WAY = 3
 
 
 @pytest.fixture(autouse=True)
@@ -140,15 +143,26 @@ def wait_running(g, t0):
     wait_until(lambda: any(s.state == BoardState.RUNNING for s in states_since(g, t0)), 30, "RUNNING")
 
 
-def wait_board_rest(g, settle=0.6):
-    """The trace stops growing (the board stepped nothing for `settle` seconds)."""
-    n = -1
-    while True:
-        m = len(read_trace(g.trace))
-        if m == n:
-            return m
-        n = m
-        time.sleep(settle)
+def wait_under_way(g, seq_before):
+    """Wait until the board has started UNDER_WAY commands after the first `seq_before` of its log."""
+    wait_until(lambda: len(new_seq(g, seq_before)) >= UNDER_WAY, 60, f"{UNDER_WAY} of the job's commands on the board")
+
+
+def wait_board_rest(g, t0, timeout=60):
+    """Wait for a state reported after t0 in which the board moves no more (IDLE with an empty
+    queue, or ALARM); returns the length of the step trace, whole by then: the mock board
+    flushes it before it can report either."""
+    from plotter_interfaces.msg import BoardState
+
+    def at_rest(s):
+        return (s.state == BoardState.IDLE and s.queue_free == s.queue_size) or s.state == BoardState.ALARM
+    wait_until(lambda: any(at_rest(s) for s in states_since(g, t0)), timeout, "the board at rest")
+    return len(read_trace(g.trace))
+
+
+def endpoints(g, dds_topic):
+    """The GIDs of the readers the probe knows of on a DDS topic (a service's request topic too)."""
+    return {bytes(i.endpoint_gid) for i in g.probe.node.get_subscriptions_info_by_topic(dds_topic, no_mangle=True)}
 
 
 # --- bad input on every interface ------------------------------------------------------
@@ -223,8 +237,9 @@ def test_port_unplugged_and_back_mid_job_resumes_exactly(graph):
     t0 = time.monotonic()
     goal = Goal(graph, text)
     wait_running(graph, t0)
-    time.sleep(1.0)
+    wait_under_way(graph, seq_before)
     assert call(graph, "mock_board/unplug").success
+    assert not goal.future.done(), "the job was over before the port went"
     res = goal.result()
     assert res.result.success, res.result.message
     seen = states_since(graph, t0)
@@ -242,16 +257,18 @@ def test_port_unplugged_and_back_mid_job_resumes_exactly(graph):
 def test_estop_mid_job_stops_and_nothing_queued_runs_after(graph):
     from action_msgs.msg import GoalStatus
     from plotter_interfaces.msg import BoardState
+    seq_before = len(read_seq_log(graph.seq_log))
     t0 = time.monotonic()
     goal = Goal(graph, zigzag(30, y0=100.0))
     wait_running(graph, t0)
-    time.sleep(0.8)
+    wait_under_way(graph, seq_before)
+    t_stop = time.monotonic()
     assert call(graph, "estop").success
     res = goal.result()
     assert res.status == GoalStatus.STATUS_ABORTED and "emergency stop" in res.result.message
     assert f"plotter resume {res.result.job_id} finishes it" in res.result.message, "where and how to go on"
     wait_until(lambda: latest(graph).state == BoardState.ALARM, 10, "ALARM")
-    n = wait_board_rest(graph)
+    n = wait_board_rest(graph, t_stop)
     seqs = read_seq_log(graph.seq_log)
     time.sleep(1.5)
     assert len(read_trace(graph.trace)) == n, "moved after the emergency stop"
@@ -275,11 +292,11 @@ def test_streamer_killed_mid_job_the_bridge_finishes_it_and_resume_says_done(gra
     t0 = time.monotonic()
     Goal(graph, text)
     wait_running(graph, t0)
-    time.sleep(1.5)
+    wait_under_way(graph, seq_before)
     os.kill(graph.streamer.proc.pid, signal.SIGKILL)
     graph.streamer.proc.wait()
     wait_until(lambda: len(new_seq(graph, seq_before)) == len(commands), 60, "the whole job on the board")
-    wait_board_rest(graph)
+    wait_board_rest(graph, time.monotonic())
     assert read_trace(graph.trace)[-1][1:] == end_of(commands, start), "drawn to its end, exact to the step"
     seqs = new_seq(graph, seq_before)
     assert consecutive(seqs), f"every command once, in order: {seqs}"
@@ -288,11 +305,14 @@ def test_streamer_killed_mid_job_the_bridge_finishes_it_and_resume_says_done(gra
     assert progress.state == "running" and progress.completed < len(commands), "the streamer died mid-job"
 
     # A new streamer resumes the job from its journal: the bridge says it is done, nothing moves.
-    # The dead streamer stays in the ROS graph until its DDS lease ends: wait for the new one.
-    listeners = graph.probe.node.count_subscribers("/plotter/program")
+    # The dead streamer stays in the ROS graph until its DDS lease ends, and may leave it any time:
+    # wait for readers the probe did not know before, the new streamer's, on its program topic and
+    # on the requests of its run_program action (a goal sent before they match is lost).
+    topics = ("rt/plotter/program", "rq/plotter/run_program/_action/send_goalRequest",
+              "rq/plotter/run_program/_action/get_resultRequest")
+    old = {t: endpoints(graph, t) for t in topics}
     graph.restart_streamer()
-    wait_until(lambda: graph.probe.node.count_subscribers("/plotter/program") > listeners, 30, "the new streamer")
-    time.sleep(1.0)
+    wait_until(lambda: all(endpoints(graph, t) - old[t] for t in topics), 30, "the new streamer")
     n = len(read_trace(graph.trace))
     res = Goal(graph, resume=job_id).result()
     assert res.result.success and "already done" in res.result.message, res.result.message
@@ -305,16 +325,17 @@ def test_streamer_killed_mid_job_the_bridge_finishes_it_and_resume_says_done(gra
 
 def test_board_reset_mid_job_aborts_and_position_is_unknown_until_set_origin(graph):
     from action_msgs.msg import GoalStatus
+    seq_before = len(read_seq_log(graph.seq_log))
     t0 = time.monotonic()
     goal = Goal(graph, zigzag(30, y0=150.0))
     wait_running(graph, t0)
-    time.sleep(0.8)
+    wait_under_way(graph, seq_before)
     assert call(graph, "mock_board/power_cycle").success
     res = goal.result()
     assert res.status == GoalStatus.STATUS_ABORTED
     assert "board reset" in res.result.message and "position is unknown" in res.result.message
     wait_until(lambda: not latest(graph).position_known, 10, "position_known false")
-    n = wait_board_rest(graph)
+    n = wait_board_rest(graph, time.monotonic())
     time.sleep(1.0)
     assert len(read_trace(graph.trace)) == n
     log = read_seq_log(graph.seq_log)

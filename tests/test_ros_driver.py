@@ -363,15 +363,24 @@ def test_ten_stream_commands_goals_at_once_one_runs_the_rest_are_refused(graph):
     from plotter_interfaces.action import StreamCommands
     client = graph.probe.action_client(StreamCommands, "stream_commands")
     assert client.wait_for_server(timeout_sec=30)
-    goals = [StreamCommands.Goal(commands=["L 400 0 4000 0", "L -400 0 4000 0"]) for _ in range(10)]
+    # Out 5 mm and back, 3 s apart: the board is the first goal's until long after the last answer.
+    goals = [StreamCommands.Goal(commands=["L 400 0 4000 0", "D 3000", "L -400 0 4000 0"]) for _ in range(10)]
+    refusal = "stream_commands goal rejected: another job is running"
+    refused_before = graph.bridge.output().count(refusal)
+    start = len(read_trace(graph.trace))
     t0 = time.monotonic()
     handles = _send_all(client, goals, [[] for _ in goals])
-    assert time.monotonic() - t0 < 30
+    answered = time.monotonic() - t0
+    assert answered < 30
+    # The bridge takes the board for a goal as it accepts it, and lets go only when the job ends.
     accepted = [h for h in handles if h.accepted]
-    assert len(accepted) >= 1 and len(accepted) < 10
-    for h in accepted:
-        assert _wait(h.get_result_async(), 60).status == GoalStatus.STATUS_SUCCEEDED
-    assert "another job is running" in graph.bridge.output()
+    assert len(accepted) == 1, f"{len(accepted)} goals accepted; the answers took {answered:.1f} s"
+    assert _wait(accepted[0].get_result_async(), 60).status == GoalStatus.STATUS_SUCCEEDED
+    assert graph.bridge.output().count(refusal) - refused_before == 9
+    # One job's steps on the board, not two: 400 along +X and the same back.
+    moved = [(x, y) for _, x, y in read_trace(graph.trace)[start:]]
+    x0, y0 = moved[0][0] - 1, moved[0][1]
+    assert moved == [(x0 + k, y0) for k in range(1, 401)] + [(x0 + k, y0) for k in range(399, -1, -1)]
 
 
 # --------------------------------------------------------------------- errors where the user looks

@@ -13,6 +13,7 @@ from node_processes import new_domain
 pytestmark = pytest.mark.ros
 
 ROUNDS = 40
+TICKS_BEFORE_STOP = 3      # callbacks in flight and more due as stop() begins
 
 
 def test_stopping_while_callbacks_run_leaves_no_error_behind(capfd):
@@ -29,13 +30,20 @@ def test_stopping_while_callbacks_run_leaves_no_error_behind(capfd):
             rclpy.init(context=context, domain_id=domain)
             node = rclpy.create_node("spinning", context=context)
             ticks = []
-            node.create_timer(0.0005, lambda: (ticks.append(1), time.sleep(0.0002)))
+            ticking = threading.Event()
+
+            def tick(ticks=ticks, ticking=ticking) -> None:
+                ticks.append(1)
+                if len(ticks) >= TICKS_BEFORE_STOP:
+                    ticking.set()
+                time.sleep(0.0002)
+            node.create_timer(0.0005, tick)
             executor = MultiThreadedExecutor(num_threads=4, context=context)
             executor.add_node(node)
             spin = SpinThread(executor)
-            time.sleep(0.05)
+            # Stopped once the timer keeps firing, however long a loaded machine takes to get there.
+            assert ticking.wait(60), f"the timer ran {len(ticks)} times in 60 s"
             spin.stop()
-            assert ticks, "the timer never ran"
             node.destroy_node()
             rclpy.try_shutdown(context=context)
         gc.collect()          # a task's unretrieved exception is reported as it is freed

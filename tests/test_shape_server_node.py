@@ -87,16 +87,24 @@ class Probe:
         self.ns = namespace
         self.programs = []
         self.errors = []
+        # Answers to wait_for_server_node's pings: one may come late, into a test, and is dropped.
+        self.ping_answers = set()
         self.node.create_subscription(
-            String, f"{namespace}/program", lambda m: self.programs.append(m.data), 10)
+            String, f"{namespace}/program", lambda m: self._keep(self.programs, m.data), 10)
         self.node.create_subscription(
-            String, f"{namespace}/shape_error", lambda m: self.errors.append(m.data), 10)
+            String, f"{namespace}/shape_error", lambda m: self._keep(self.errors, m.data), 10)
         self.shape_pub = self.node.create_publisher(ShapeGoal, f"{namespace}/shape", 10)
         self.executor = MultiThreadedExecutor(num_threads=4, context=self.context)
         self.executor.add_node(self.node)
         self.closing = threading.Event()
+        self.goals_lock = threading.Lock()
+        self.goals_running = 0          # FakeStreamer goals whose execute has not returned
         from plotter_bridge.nodes.spinning import SpinThread
         self.spin = SpinThread(self.executor)
+
+    def _keep(self, answers, text):
+        if text not in self.ping_answers:
+            answers.append(text)
 
     def wait_for_server_node(self, server: NodeProcess):
         """Until messages flow both ways on all three topics.
@@ -121,11 +129,8 @@ class Probe:
                 resend_at = time.monotonic() + 0.5
                 while not answers and time.monotonic() < resend_at:
                     time.sleep(0.02)
-        # Let late answers to earlier pings arrive, then forget all answers.
-        seen = -1
-        while seen != len(self.programs) + len(self.errors):
-            seen = len(self.programs) + len(self.errors)
-            time.sleep(0.3)
+            # Every ping of a kind has the same answer: one to a ping sent before is dropped as it comes.
+            self.ping_answers.update(answers)
         self.programs.clear()
         self.errors.clear()
 
@@ -139,7 +144,8 @@ class Probe:
         import rclpy
 
         self.closing.set()
-        time.sleep(0.2)  # let a FakeStreamer goal still running end itself
+        # A FakeStreamer goal still running ends itself on `closing`, before its handles go.
+        wait_until(lambda: self.goals_running == 0, what="the fake streamer's goals to end")
         self.spin.stop()                   # out of the executor before the node goes
         self.node.destroy_node()
         rclpy.shutdown(context=self.context)
@@ -221,6 +227,7 @@ class FakeStreamer:
         from plotter_interfaces.action import RunProgram
 
         self.hold = hold
+        self.probe = probe
         self.closing = probe.closing
         self.goals = []
         self.cancelled = threading.Event()
@@ -237,6 +244,15 @@ class FakeStreamer:
         )
 
     def execute(self, goal_handle):
+        with self.probe.goals_lock:
+            self.probe.goals_running += 1
+        try:
+            return self._execute(goal_handle)
+        finally:
+            with self.probe.goals_lock:
+                self.probe.goals_running -= 1
+
+    def _execute(self, goal_handle):
         from plotter_interfaces.action import RunProgram
 
         request = goal_handle.request

@@ -120,8 +120,11 @@ def plotter_with_input(args, stdin_text, timeout=600):
 @pytest.mark.ros
 def test_plotter_svg_waits_at_each_pen_change_for_enter(tmp_path, colours):
     from ros_graph import read_trace
-    trace = tmp_path / "trace.csv"
-    r = plotter_with_input(["svg", colours, "--mock", "--quiet", "--feed", "6000", "--trace", trace], "\n\n")
+    from plotter_bridge.motion.compiler import StreamerConfig
+    from plotter_bridge.sim.expected import drawn_whole, program_steps
+    trace, program = tmp_path / "trace.csv", tmp_path / "colours.gcode"
+    r = plotter_with_input(["svg", colours, "--mock", "--quiet", "--feed", "6000", "--trace", trace,
+                            "--gcode", program], "\n\n")
     assert r.returncode == 0, r.stderr
     asked = [line for line in r.stderr.splitlines() if line.startswith("pen change: put in")]
     assert asked == ['pen change: put in layer 2 "red" #ff0000, then press Enter (or run plotter resume); '
@@ -131,14 +134,23 @@ def test_plotter_svg_waits_at_each_pen_change_for_enter(tmp_path, colours):
     steps = [(x, y) for _, x, y in read_trace(trace)]
     assert (0, 0) in steps, "parked at the origin for the pen changes"
     assert steps[-1] == (round(135 * 80), round(85 * 80))
+    # Every layer drawn, each once, to the step the firmware core takes for the program.
+    assert drawn_whole(steps, program_steps(program.read_text(), StreamerConfig()), (0, 0), 80.0) == ""
 
 
 @pytest.mark.ros
 def test_plotter_svg_without_anyone_to_change_the_pen_stops_there_resumable(tmp_path, colours):
+    from plotter_bridge.link.journal import Journal, job_summaries
     journal = tmp_path / "journal"
     r = plotter_with_input(["svg", colours, "--mock", "--quiet", "--journal", journal], "")
     assert r.returncode == 1, r.stderr
     assert "no one to change the pen" in r.stderr and "plotter resume" in r.stderr
+    # The journal holds the job to finish, stopped with the first layer done: resumed, it starts at the change.
+    (job,) = job_summaries(Journal(journal))
+    assert job.resumable, job
+    assert f"plotter resume {job.job_id}" in r.stderr
+    record, _ = Journal(journal).load(job.job_id)
+    assert record.commands[job.completed] == "M6 0", (job.completed, record.commands)
     r = plotter_with_input(["svg", colours, "--mock", "--quiet", "--feed", "6000", "--no-pen-wait"], "")
     assert r.returncode == 0, r.stderr
     assert r.stderr.count("(not waited for: --no-pen-wait)") == 2

@@ -7,7 +7,6 @@ import signal
 import subprocess
 import sys
 import textwrap
-import time
 from pathlib import Path
 
 from node_processes import stuck_in_dds_teardown
@@ -28,21 +27,20 @@ SOURCE = Path(__file__).resolve().parent.parent / "ros_ws" / "src" / "plotter_br
 
 def run(mode):
     env = dict(os.environ, PYTHONPATH=str(SOURCE))
-    t0 = time.monotonic()
-    proc = subprocess.run([sys.executable, "-c", STUCK, mode], capture_output=True, text=True, timeout=60, env=env)
-    return proc, time.monotonic() - t0
+    return subprocess.run([sys.executable, "-c", STUCK, mode], capture_output=True, text=True, timeout=60, env=env)
 
 
 def test_a_teardown_stuck_with_the_gil_held_ends_with_the_stacks():
-    proc, seconds = run("stuck")
-    assert proc.returncode == -signal.SIGALRM
-    assert seconds < 10, "the watchdog did not end it"
+    proc = run("stuck")
+    # Ended by the watchdog's alarm, in the 30 s C call: nothing else sends SIGALRM, and
+    # had the call returned the process would have said "torn down".
+    assert proc.returncode == -signal.SIGALRM, "the watchdog did not end it"
     assert "Timeout (0:00:01)!" in proc.stderr and "<string>" in proc.stderr, proc.stderr
     assert "torn down" not in proc.stdout
 
 
 def test_a_teardown_that_ends_in_time_stops_the_watchdog():
-    proc, _ = run("quick")
+    proc = run("quick")
     assert proc.returncode == 0 and proc.stdout == "torn down\n", proc.stderr
     assert "Timeout" not in proc.stderr
 

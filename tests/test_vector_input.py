@@ -136,9 +136,15 @@ def test_plotter_svg_and_text_draw_on_the_mock_board(tmp_path, drawing):
     arcs = sum(1 for line in program.splitlines() if line.startswith(("G2 ", "G3 ")))
     lines = sum(1 for line in program.splitlines() if line.startswith("G1 "))
     assert arcs >= 10 and lines <= 4, (arcs, lines)     # the circle, the half circle, the cubic's arcs
-    r = plotter("text", "HI", "--size", "15", "--feed", "4000", "--mock", "--quiet", "--trace", trace)
+    r = plotter("text", "HI", "--size", "15", "--feed", "4000", "--mock", "--quiet", "--trace", trace,
+                "--gcode", tmp_path / "hi.gcode")
     assert r.returncode == 0, r.stderr
     xs = [x for _, x, _ in read_trace(trace)]
     assert len(xs) > 1000
+    # The board stepped the text's program, all of it, as the firmware core steps it from the origin.
+    from plotter_bridge.motion.compiler import StreamerConfig
+    from plotter_bridge.sim.expected import drawn_whole, program_steps
+    expected = program_steps((tmp_path / "hi.gcode").read_text(), StreamerConfig())
+    assert drawn_whole([(x, y) for _, x, y in read_trace(trace)], expected, (0, 0), 80.0) == ""
     r = plotter("svg", tmp_path / "missing.svg", "--mock")
     assert r.returncode == 2

@@ -7,14 +7,17 @@ import json
 import os
 import re
 import socket
+import sys
 import time
 import urllib.error
 import urllib.request
 from pathlib import Path
+from typing import List, Tuple
 
 import pytest
 
 from node_processes import NodeProcess, PlotterGraph, new_domain, params_file, read_trace, wait_until
+from ros_graph import HELD_REPORTS, board_reports, held_still
 
 pytestmark = pytest.mark.ros
 
@@ -112,6 +115,45 @@ def wait_job(page, status: str, timeout: float = 120) -> None:
     wait_until(lambda: text(page.driver, "job-status") == status, timeout, f"the job to be {status}")
 
 
+def pen_steps(driver) -> Tuple[int, int]:
+    """Where the page says the pen is, in steps: where the board's trace goes on
+    from (a set origin moves the trace's origin with the board's)."""
+    return round(float(text(driver, "x")) * STEPS_PER_MM), round(float(text(driver, "y")) * STEPS_PER_MM)
+
+
+def drawing_check():
+    """scripts/drawing_check.py: what a graph on the mock board drew, held against
+    its programs, as the demo holds it."""
+    scripts = str(REPO / "scripts")
+    if scripts not in sys.path:
+        sys.path.insert(0, scripts)
+    import drawing_check
+    return drawing_check
+
+
+def graph_config():
+    """The compiler settings of the graph's streamer (config/plotter.yaml)."""
+    return drawing_check().graph_configs()[0]
+
+
+def drawing_problems(page, program: str, before: int, start: Tuple[int, int]) -> List[str]:
+    """Why the board's steps from trace row `before` on are not `program` drawn
+    whole from `start` (steps), to the step the firmware core takes; none when they are."""
+    drawn = [(x, y) for _, x, y in read_trace(page.trace)[before:]]
+    return drawing_check().figure_problems(program, drawn, start, graph_config())
+
+
+def svg_as_the_page_sends_it(svg: str, name: str, width: float) -> str:
+    """The program the page makes of an uploaded SVG drawing `width` mm wide, with
+    web_ui's work area and feed from config/plotter.yaml."""
+    from plotter_bridge.gcode.limits import WorkArea
+    from plotter_web import web_ui_node
+    from plotter_web.jobs import svg_to_program
+    values = drawing_check().node_values(web_ui_node.SPECS, params_file())
+    area = WorkArea(*(float(values[k]) for k in ("x_min", "x_max", "y_min", "y_max")))
+    return svg_to_program(svg.encode(), name, area, width, float(values["default_feed"]))
+
+
 def test_an_uploaded_program_is_checked_run_and_drawn_live(page):
     program = "(web square)\nG21 G90\nG0 X30 Y30\nM3\nG1 X70 Y30 F3000\nG1 X70 Y70\nG2 X30 Y70 I-20 J0\n" \
               "G1 X30 Y30\nM5\nM2\n"
@@ -159,14 +201,21 @@ def test_an_svg_file_is_drawn(page):
     page.driver.find_element("id", "svg-width").send_keys("40")
     upload(page, "box.svg", svg)
     wait_until(lambda: "fits the work area" in text(page.driver, "check-result"), 30, "the SVG's check")
+    start, before = pen_steps(page.driver), len(read_trace(page.trace))
     click_for_job(page, "run")
     wait_job(page, "succeeded")
+    program = svg_as_the_page_sends_it(svg, "box.svg", 40.0)
+    assert drawing_problems(page, program, before, start) == []
+    # The box is all the drawing there is: 40 mm wide as asked, in the middle of the area.
+    drawn = {(x, y) for _, x, y in read_trace(page.trace)[before:]}
+    corners = {(round(x * STEPS_PER_MM), round(y * STEPS_PER_MM)) for x in (80, 120) for y in (80, 120)}
+    assert corners <= drawn, corners - drawn
 
 
 def test_hold_resume_and_a_job_while_busy_is_refused(page):
-    before = len(read_trace(page.trace))
-    upload(page, "slow.gcode", "(slow)\nG21 G90\nG0 X20 Y120\nM3\n" + "G1 X180 Y120 F1500\nG1 X20 Y121\n" * 2
-           + "M5\nM2\n")
+    start, before = pen_steps(page.driver), len(read_trace(page.trace))
+    program = "(slow)\nG21 G90\nG0 X20 Y120\nM3\n" + "G1 X180 Y120 F1500\nG1 X20 Y121\n" * 2 + "M5\nM2\n"
+    upload(page, "slow.gcode", program)
     wait_until(lambda: "fits" in text(page.driver, "check-result"), 30, "the check")
     click_for_job(page, "run")
     wait_until(lambda: text(page.driver, "state") == "RUNNING", 30, "RUNNING")
@@ -175,7 +224,8 @@ def test_hold_resume_and_a_job_while_busy_is_refused(page):
     assert "'slow' is running" in text(page.driver, "message")
     page.driver.find_element("id", "hold").click()
     wait_until(lambda: text(page.driver, "state") == "HOLD", 15, "HOLD")
-    time.sleep(0.5)                       # a hold brakes along the ramp before the pen rests
+    with board_reports(page.domain) as reports:      # a hold brakes along the ramp before the pen rests
+        wait_until(lambda: held_still(reports[-HELD_REPORTS:], page.trace), 30, "the pen at rest in HOLD")
     held = len(read_trace(page.trace))
     time.sleep(0.6)
     assert len(read_trace(page.trace)) == held
@@ -185,6 +235,8 @@ def test_hold_resume_and_a_job_while_busy_is_refused(page):
                "the time left")
     wait_job(page, "succeeded", 180)
     assert len(read_trace(page.trace)) > held > before
+    # Held and resumed, the board went on from where it stopped: no step lost or taken twice.
+    assert drawing_problems(page, program, before, start) == []
 
 
 def test_emergency_stop_and_reset(page):
@@ -194,9 +246,10 @@ def test_emergency_stop_and_reset(page):
         el = page.driver.find_element("id", field)
         el.clear()
         el.send_keys(value)
+    before = len(read_trace(page.trace))
     click_for_job(page, "draw")
     wait_until(lambda: text(page.driver, "state") == "RUNNING", 30, "RUNNING")
-    time.sleep(0.5)
+    wait_until(lambda: len(read_trace(page.trace)) > before, 30, "the board stepping")     # stopped mid-move
     page.driver.find_element("id", "estop").click()
     wait_until(lambda: text(page.driver, "state") == "ALARM", 10, "ALARM")
     wait_job(page, "aborted", 30)
@@ -221,14 +274,21 @@ def run_and_cancel(page, after: float) -> None:
 
 
 def test_cancel_stops_the_job_and_set_origin_zeroes_the_position(page):
+    from plotter_bridge.sim.expected import drawn_whole, program_steps
     wait_until(lambda: text(page.driver, "state") == "IDLE", 30, "IDLE")
-    upload(page, "long.gcode", "(long)\nG21 G90\nG0 X20 Y40\nM3\n" + "G1 X180 Y40 F1200\nG1 X20 Y41\n" * 3
-           + "M5\nM2\n")
+    program = "(long)\nG21 G90\nG0 X20 Y40\nM3\n" + "G1 X180 Y40 F1200\nG1 X20 Y41\n" * 3 + "M5\nM2\n"
+    upload(page, "long.gcode", program)
+    start, before = pen_steps(page.driver), len(read_trace(page.trace))
     run_and_cancel(page, after=1.0)
     stopped = read_trace(page.trace)
     time.sleep(1.0)
     assert read_trace(page.trace) == stopped, "the board moved after the cancel"
-    assert stopped[-1][1] < 179 * STEPS_PER_MM or stopped[-1][2] < 41 * STEPS_PER_MM
+    # Stopped part way: every step the program's, and far fewer than all of them (the
+    # program takes some 50 s, the cancel came after 1).
+    expected = program_steps(program, graph_config(), start)
+    why = drawn_whole([(x, y) for _, x, y in stopped[before:]], expected, start, STEPS_PER_MM)
+    found = re.fullmatch(r"the board stepped (\d+) of (\d+) steps, .*", why)
+    assert found and 0 < int(found[1]) < int(found[2]) // 2, why
     page.driver.find_element("id", "set-origin").click()
     wait_until(lambda: (text(page.driver, "x"), text(page.driver, "y")) == ("0.000", "0.000"), 15, "the new origin")
     # Home, on a machine the bridge is not told has its limit switches: refused, saying how to turn it on.
@@ -285,6 +345,7 @@ def test_a_three_pen_drawing_is_planned_before_run_and_waits_at_each_pen_change(
                for line in page.driver.find_elements("css selector", "#preview polyline")}
     assert colours == {"rgb(0, 0, 0)", "rgb(255, 0, 0)", "rgb(0, 0, 255)"}, colours
     assert page.driver.find_elements("css selector", "#travel polyline"), "the pen-up travel is shown"
+    start, before = pen_steps(page.driver), len(read_trace(page.trace))
     click_for_job(page, "run")
     waiting = None
     for pen in ('layer 2 "red" #ff0000', 'layer 3 "blue" #0000ff'):
@@ -299,6 +360,8 @@ def test_a_three_pen_drawing_is_planned_before_run_and_waits_at_each_pen_change(
     wait_job(page, "succeeded", 120)
     assert not page.driver.find_element("id", "pen-change").is_displayed()
     assert len(read_trace(page.trace)) > len(waiting)
+    # All three pens' paths, and the travel to the park position and back at each change.
+    assert drawing_problems(page, svg_as_the_page_sends_it(THREE_PENS, "three-pens.svg", 60.0), before, start) == []
 
 
 def test_the_layers_asked_for_are_planned_in_that_order_and_a_bad_order_is_refused(page):
