@@ -10,7 +10,8 @@
  * instructions; a byte takes about 960 machine cycles at 9600 baud), and s51's
  * flow control still hands the firmware one byte at a time.  Only a
  * zero-timeout select() of one descriptor for reading is held back: the
- * command console's, asked once a million instructions, never waits. */
+ * command console's, asked once a million instructions, never waits.  And
+ * the naps of the stopped simulator are short (nanosleep below). */
 #define _GNU_SOURCE
 #include <dlfcn.h>
 #include <stddef.h>
@@ -18,6 +19,7 @@
 #include <time.h>
 
 #define POLL_NS 20000LL
+#define IDLE_NAP_NS 1000000L
 
 typedef int select_fn(int, fd_set *, fd_set *, fd_set *, struct timeval *);
 
@@ -55,4 +57,21 @@ int select(int nfds, fd_set *r, fd_set *w, fd_set *e, struct timeval *tv)
         asked_at[nfds - 1] = now;
     }
     return real_select(nfds, r, w, e, tv);
+}
+
+typedef int nanosleep_fn(const struct timespec *, struct timespec *);
+
+/* Stopped, s51 looks at its command console between naps of 100 ms: a command
+ * waited 50 ms on average for its turn, and a test that reads and sets the
+ * simulated chip between runs sends hundreds.  The nap is 1 ms instead. */
+int nanosleep(const struct timespec *req, struct timespec *rem)
+{
+    static nanosleep_fn *real_nanosleep;
+    if (!real_nanosleep)
+        real_nanosleep = (nanosleep_fn *)dlsym(RTLD_NEXT, "nanosleep");
+    if (req && req->tv_sec == 0 && req->tv_nsec == 100000000L) {
+        struct timespec nap = {0, IDLE_NAP_NS};
+        return real_nanosleep(&nap, rem);
+    }
+    return real_nanosleep(req, rem);
 }
