@@ -18,7 +18,7 @@ import math
 import random
 from collections import deque
 from dataclasses import dataclass, fields
-from typing import Deque, Tuple
+from typing import Deque, Optional, Tuple
 
 
 @dataclass(frozen=True)
@@ -141,6 +141,10 @@ class FaultyChannel:
         while self._queue and self._queue[0][0] <= now:
             out += self._queue.popleft()[1]
         return bytes(out)
+
+    def due(self) -> Optional[float]:
+        """When the next bytes on the wire arrive, if any are on it."""
+        return self._queue[0][0] if self._queue else None
 
     def clear(self) -> None:
         """Everything still on the wire is lost (the port vanished)."""

@@ -53,6 +53,7 @@ TX_SIZE = 16          # firmware core/config.h: the transmit ring
 # Bytes the board acts on as soon as they arrive: line ends and the real-time bytes.
 RX_EVENTS = b"\n\r?!~\x18\x1b"
 RX_SIZE = 64             # core/config.h: the receive ring
+REST_NAP_S = 0.02     # host s the loop sleeps at most while the board rests (_wait)
 STALL = 0.003         # s: a pass of the loop this much later than it meant to wake is a stall
 PANEL_CATCH_UP_MS = 100   # panel ticks run at most this late: a stalled process does not replay seconds
 TRACE_FLUSH_S = 0.1      # s: longest a step waits in the trace's buffer while the board runs
@@ -233,11 +234,15 @@ class MockBoard:
 
     def _wait(self, now: float) -> None:
         """Sleep until the next byte the board or the host acts on (a line
-        end or a real-time byte in either direction), input from the pty,
-        or at most a millisecond while the board moves (its steps are
-        caught up in batches), two while it rests."""
-        wake = now + (0.001 if self.core.timer_running() else 0.002)
-        for t in (self.rx.due(RX_EVENTS), self.tx.due(b"\n"), self._tx_unblocked_at(), self._busy(now)):
+        end or a real-time byte in either direction, bytes a faulty wire
+        held back), input from the pty, the port's return after an unplug,
+        or at most a millisecond while the board moves (its steps are caught
+        up in batches), REST_NAP_S while it rests (nothing else is due then,
+        and a graph's boards waking 500 times a second took a tenth of a
+        core each)."""
+        wake = now + (0.001 if self.core.timer_running() else REST_NAP_S * self.config.speed)
+        for t in (self.rx.due(RX_EVENTS), self.tx.due(b"\n"), self._tx_unblocked_at(), self._busy(now),
+                  self.down.due(), self.up.due(), self._replug_at):
             if t is not None:
                 wake = min(wake, t)
         # From the time it is now: this pass's work has taken some of it.
