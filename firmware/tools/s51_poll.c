@@ -1,21 +1,29 @@
-/* s51_poll.c: preloaded into the s51 simulator by tools/s51sim.py, it lets
- * the simulated UART look at its pseudo-terminal at most once every
- * POLL_NS of host time instead of at every instruction.
+/* s51_poll.c: preloaded into the s51 simulator by tools/s51sim.py, it takes
+ * three waits out of uCsim 0.6.4 that cost the tests most of their time and
+ * change nothing the 8051 sees:
+ *
+ * - the UART looks at its pseudo-terminal at most once every POLL_NS of host
+ *   time instead of at every instruction (select below);
+ * - the stopped simulator naps 1 ms between looks at its console, not 100 ms
+ *   (nanosleep below);
+ * - the console's connection has Nagle's algorithm off (accept below).
  *
  * With uart0_check_often=1 (typed lines must arrive whole, s51sim.py says
- * why) uCsim 0.6.4 asks select() about the pty before each instruction the
- * 8051 runs while its receiver is idle: a system call per instruction, half
- * of s51's time in the kernel and the simulation about five times slower.
+ * why) uCsim asks select() about the pty before each instruction the 8051
+ * runs while its receiver is idle: a system call per instruction, half of
+ * s51's time in the kernel and the simulation about five times slower.
  * Asked every 20 us instead, a byte waits at most that long (some tens of
  * instructions; a byte takes about 960 machine cycles at 9600 baud), and s51's
  * flow control still hands the firmware one byte at a time.  Only a
  * zero-timeout select() of one descriptor for reading is held back: the
- * command console's, asked once a million instructions, never waits.  And
- * the naps of the stopped simulator are short (nanosleep below). */
+ * command console's, asked once a million instructions, never waits. */
 #define _GNU_SOURCE
 #include <dlfcn.h>
 #include <stddef.h>
+#include <netinet/in.h>
+#include <netinet/tcp.h>
 #include <sys/select.h>
+#include <sys/socket.h>
 #include <time.h>
 
 #define POLL_NS 20000LL
@@ -74,4 +82,23 @@ int nanosleep(const struct timespec *req, struct timespec *rem)
         return real_nanosleep(&nap, rem);
     }
     return real_nanosleep(req, rem);
+}
+
+typedef int accept_fn(int, struct sockaddr *, socklen_t *);
+
+/* s51 writes its console's output a byte per write(): with Nagle's algorithm
+ * on the connection each byte after the first waited for the host's delayed
+ * acknowledgement, some 40 ms a command.  The console connection (-Z) is
+ * accepted with TCP_NODELAY. */
+int accept(int fd, struct sockaddr *addr, socklen_t *len)
+{
+    static accept_fn *real_accept;
+    if (!real_accept)
+        real_accept = (accept_fn *)dlsym(RTLD_NEXT, "accept");
+    int conn = real_accept(fd, addr, len);
+    if (conn >= 0) {
+        int on = 1;
+        setsockopt(conn, IPPROTO_TCP, TCP_NODELAY, &on, sizeof on);
+    }
+    return conn;
 }

@@ -63,7 +63,8 @@ def s51_path():
 def poll_shim():
     """build/tools/s51_poll.so, compiled from tools/s51_poll.c when missing or
     older than it (one process at a time), or None where there is no C compiler:
-    s51 then polls its UART at every instruction, five times slower."""
+    s51 then polls its UART at every instruction and answers its console slowly
+    (tools/s51_poll.c says how much)."""
     source = FIRMWARE / "tools" / "s51_poll.c"
     lib = FIRMWARE / "build" / "tools" / "s51_poll.so"
     compiler = shutil.which(os.environ.get("CC", "cc")) or shutil.which("gcc")
