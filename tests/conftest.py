@@ -177,6 +177,9 @@ LONGEST_FILES = (
     "test_firmware_plan_cost.py", "test_firmware_preemption.py", "test_firmware_interpolation.py",
     "test_follow.py", "test_generator_corpus.py", "test_real_programs.py", "test_follow_command.py",
     "test_arcfit.py", "test_gcode_oracle.py", "test_firmware_follow.py",
+    # the ros stage's
+    "test_web_ui.py", "test_ros_driver.py", "test_plotter_client.py", "test_plotter_cli.py",
+    "test_follow_graph.py", "test_plotter_follow.py", "test_fleet.py",
 )
 
 
