@@ -79,14 +79,19 @@ def run_stage(stage: Stage, workers: int, args: List[str], deadline: float) -> O
     outcome = Outcome()
     try:
         proc.wait(timeout=max(1.0, deadline - time.monotonic()))
-    except subprocess.TimeoutExpired:
-        outcome.note = f"stage {stage.name} passed the run's time limit and was stopped"
+    except (subprocess.TimeoutExpired, KeyboardInterrupt) as exc:
+        # In its own session (so that the stop reaches every worker and node it started): stopped
+        # here, on the time limit or on Ctrl-C.
+        outcome.note = (f"stage {stage.name} passed the run's time limit and was stopped"
+                        if isinstance(exc, subprocess.TimeoutExpired) else f"stage {stage.name} interrupted")
         os.killpg(proc.pid, signal.SIGINT)        # pytest prints what it has, then ends
         try:
             proc.wait(timeout=60)
         except subprocess.TimeoutExpired:
             os.killpg(proc.pid, signal.SIGKILL)
             proc.wait()
+        if isinstance(exc, KeyboardInterrupt):
+            raise
     outcome.seconds = time.monotonic() - start
     try:
         data = json.loads(report.read_text() or "{}")
