@@ -136,7 +136,7 @@ class Sim:
         port = sock.getsockname()[1]
         sock.close()
         env = dict(os.environ)
-        shim = poll_shim()
+        shim = None if os.environ.get("PLOTTER_S51_SHIM") == "0" else poll_shim()
         if shim:
             env["LD_PRELOAD"] = " ".join(filter(None, (str(shim), env.get("LD_PRELOAD"))))
         self.proc = subprocess.Popen(
