@@ -193,6 +193,11 @@ def pytest_addoption(parser):
                      help="write the run's outcome counts and skips as JSON to this file (scripts/test_stages.py)")
 
 
+def _skip_reason(report) -> str:
+    """A skipped report's reason (its longrepr is (file, line, reason) for a skip)."""
+    return str(report.longrepr[2] if isinstance(report.longrepr, tuple) else report.longrepr)
+
+
 @pytest.hookimpl(hookwrapper=True)
 def pytest_runtest_makereport(item, call):
     """Under PLOTTER_STRICT_SKIPS=1 a skip whose reason is not one of
@@ -202,7 +207,7 @@ def pytest_runtest_makereport(item, call):
     if (os.environ.get("PLOTTER_STRICT_SKIPS") != "1" or not report.skipped
             or hasattr(report, "wasxfail")):
         return
-    reason = str(report.longrepr[2]) if isinstance(report.longrepr, tuple) else str(report.longrepr)
+    reason = _skip_reason(report)
     if not any(expected in reason for expected in EXPECTED_SKIPS):
         report.outcome = "failed"
         report.longrepr = f"skipped, and this run allows no skip for that reason: {reason}"
@@ -218,6 +223,5 @@ def pytest_terminal_summary(terminalreporter, exitstatus, config):
               for key in ("failed", "passed", "skipped", "xfailed", "xpassed", "error", "deselected")}
     skips = []
     for report in stats.get("skipped", ()):
-        reason = report.longrepr[2] if isinstance(report.longrepr, tuple) else str(report.longrepr)
-        skips.append({"test": report.nodeid, "reason": str(reason)})
+        skips.append({"test": report.nodeid, "reason": _skip_reason(report)})
     Path(path).write_text(json.dumps({"counts": counts, "skips": skips, "exitstatus": int(exitstatus)}))
