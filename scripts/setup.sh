@@ -60,9 +60,10 @@ fi
 log "toolchain: $(sdcc --version 2>&1 | head -1 | cut -c1-60)"
 
 # --- 2. venv and Python packages -----------------------------------------------
-if [ ! -x "$VENV/bin/python" ]; then
+# A venv whose making was interrupted has a python but no pip: make it again.
+if [ ! -x "$VENV/bin/python" ] || ! "$VENV/bin/python" -m pip --version >/dev/null 2>&1; then
     log "creating venv $VENV from $("$PYTHON" --version 2>&1)"
-    "$PYTHON" -m venv "$VENV"
+    "$PYTHON" -m venv --clear "$VENV"
 fi
 PY="$VENV/bin/python"
 PYVER="$("$PY" -c 'import sys; print(f"{sys.version_info[0]}.{sys.version_info[1]}")')"
