@@ -47,18 +47,14 @@ def line_pulses(base, clock_hz, tmp):
     """Times (s) of the step pulses of LINE, from a VCD trace of port 1."""
     vcd = str(tmp / "p1.vcd")
     with s51sim.Sim(base, vcd=vcd, clock_hz=clock_hz) as sim:
-        sim.go()
         assert sim.read_until(rb"\r\n").startswith(b"PLOTTER 8051")
-        sim.stop()
         sim.vcd_start()
-        sim.go()
         sim.write(LINE.encode() + b"\n")
         assert sim.read_until(REPLY).startswith(b"ok")
         for _ in range(200):
             sim.write(b"?")
             if re.search(STATUS, sim.read_until(STATUS)).group(1) == b"Idle":
                 break
-        sim.stop()
         sim.vcd_stop()
     times, prev = [], 0xFF
     for t, v in s51sim.read_vcd(vcd)["P1"]:
@@ -102,11 +98,9 @@ def test_line_takes_as_long_as_at_12t(lines):
 def test_uart_answers_at_9600_baud(image6t):
     clock = s51sim.CLOCK_HZ_6T
     with s51sim.Sim(image6t, clock_hz=clock) as sim:
-        sim.go()
         assert sim.read_until(rb"\r\n").startswith(b"PLOTTER 8051")
         sim.write(b"?")
         status = sim.read_until(STATUS)
-        sim.stop()
         # s51 paces its UART by its own rule, not by Timer 1 (about 0.55 ms
         # a byte at either clock), so the rate is worked out from the
         # registers as the chip has them set: Timer 1 in mode 2 overflowing

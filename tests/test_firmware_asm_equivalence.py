@@ -35,7 +35,6 @@ import functools
 import math
 import re
 import sys
-import time
 from dataclasses import dataclass
 
 import pytest
@@ -290,14 +289,11 @@ def run_board(build, batch, vcd):
     switches = run.get("switches", (False, False))
     typed_ps = 0
     with s51sim.Sim(image, vcd=vcd, clock_hz=clock_hz) as sim:
-        sim.go()
         sim.read_until(rb"ready[^\n]*\n")
         if run.get("preset") or any(switches):
-            sim.stop()
             for variable, data in run.get("preset", {}).items():
                 sim.set_iram(sim.sym[variable], data)
             sim.cmd(f"set hw port[1] 0x{0xFF & ~(0x20 * switches[0]) & ~(0x80 * switches[1]):02x}")
-            sim.go()
         settings = [l for l in run["lines"] if l.startswith("$")]
         moves = [l for l in run["lines"] if not l.startswith("$")]
         for line in settings:
@@ -308,7 +304,6 @@ def run_board(build, batch, vcd):
         for line in moves:
             reply = sim.line(line)
             assert reply.startswith("ok"), (line, reply)
-        sim.stop()
         vcd_ticks = sim.ticks()               # the trace's times count from here
         sim.vcd_start()
         stopped, = sim.sym.instructions("stepper_isr", "_stepper_isr", "clr", "_st_running")
@@ -326,29 +321,26 @@ def run_board(build, batch, vcd):
                 sim.wait_stop(timeout=120)
                 type_bytes(sim, b"~~")
         if "at" not in run or run["typed"] == b"!!":
-            if not any(switches):
-                sim.cmd(f"tbreak 0x{stopped:x}")
-            sim.go()
-            if "at" not in run:
-                sim.write(b"~~")
             if any(switches):
-                time.sleep(1.5)          # a limit stops the timer, not the queue
-                sim.stop()
+                if "at" not in run:
+                    sim.write(b"~~")
+                sim.run_for(1.5)         # a limit stops the timer, not the queue
             else:
+                sim.cmd(f"tbreak 0x{stopped:x}")
+                sim.go()
+                if "at" not in run:
+                    sim.write(b"~~")
                 sim.wait_stop(timeout=120)
                 sim.cmd("step")          # the queue's end: the interrupt's last two
                 sim.cmd("step")          # instructions, for the coverage count
         else:
-            sim.go()
-            time.sleep(1.5)              # an e-stop: nothing more moves
-            sim.stop()
+            sim.run_for(1.5)             # an e-stop: nothing more moves
         sim.vcd_stop()
         code = isr_instructions(image)
         counts = sim.fetches(code[0].addr, code[-1].addr)
         EXECUTED[name].update({i.addr: counts.get(i.addr, 0) for i in code})
         RAN[name].add(batch)
         end = sim.int32("_pos_x"), sim.int32("_pos_y")
-        sim.go()
         sim.write(b"?")
         return BoardRun(end, sim.read_until(rb"<[^\n]*>[^\n]*\n").decode(), typed_ps)
 

@@ -94,9 +94,7 @@ def s51_follow(command: str, host: HostRun, sample: int = 10):
     with s51sim.Sim(mcu_image(FOLLOW="1"), timeout=60) as sim:
         taken = mailbox_taken(sim.sym)
         sim.cmd(f"set hw port[2] 0x{pins(host.bits[0]):02x}")
-        sim.go()
         sim.read_until(rb"ready[^\r\n]*\r\n")
-        sim.stop()
         sim.cmd(f"tbreak 0x{taken:x} {changes[0] + 1}")
         sim.go()
         sim.write(command.encode() + b"\n")
@@ -109,14 +107,16 @@ def s51_follow(command: str, host: HostRun, sample: int = 10):
                 assert pen == host.takes[k], f"take {k}: the image's pen at {pen}, the host's at {host.takes[k]}"
                 compared += 1
                 clocks.append((k, sim.ticks()))
-            # The pins, the next stop and go in one write: the console answers a stopped
-            # simulation about every tenth of a second, not at once.
+            # The pins, the next stop and go in one write.  After the last change the simulation
+            # stays stopped, and runs in bounded steps to the follow's end.
             batch = f"set hw port[2] 0x{pins(host.bits[k + 1]):02x}\n"
             if n + 1 < len(changes):
                 batch += f"tbreak 0x{taken:x} {changes[n + 1] - k}\n"
-            sim.sock.sendall((batch + "go\n").encode())
-            sim._until_con(rb"Simulation started[^\n]*\n")
-            sim.running = True
+                sim.sock.sendall((batch + "go\n").encode())
+                sim._until_con(rb"Simulation started[^\n]*\n")
+                sim.running = True
+            else:
+                sim.cmd(batch.strip())
         deadline = time.monotonic() + 60
         while True:
             sim.write(b"?")
@@ -124,8 +124,7 @@ def s51_follow(command: str, host: HostRun, sample: int = 10):
             assert status, "no status report"
             if status.group(1) != b"Run" or time.monotonic() > deadline:
                 break
-            time.sleep(0.2)
-        sim.stop()
+            sim.run_for(0.2)
         stack_start = size.parse_mem(f"{mcu_image(FOLLOW='1')}.mem")["stack_start"]
         return status.groups(), compared, clocks, sim.max_sp() - stack_start + 1
 
@@ -166,9 +165,7 @@ def test_the_follow_key_on_p2_3_starts_a_follow_once_held_for_its_passes():
     require_s51()
     with s51sim.Sim(mcu_image(FOLLOW="1"), timeout=60) as sim:
         sim.cmd(f"set hw port[2] 0x{pins(7):02x}")
-        sim.go()
         sim.read_until(rb"ready[^\r\n]*\r\n")
-        sim.stop()
         pressed = sim.ticks()
         sim.cmd(f"set hw port[2] 0x{pins(7) & ~0x08:02x}")
         sim.run_to(sim.sym["_planner_follow"], timeout=30)

@@ -61,7 +61,9 @@ class Mark:
 
 
 class Board:
-    """The simulated board and the person at it."""
+    """The simulated board and the person at it.  The simulation stands between
+    the person's actions and runs in bounded steps while they wait (s51sim's
+    Sim.run_for and Sim.read_until), so that each time is read at once."""
 
     def __init__(self, sim: s51sim.Sim) -> None:
         self.sim = sim
@@ -74,25 +76,20 @@ class Board:
         self.sim.vcd_start()
 
     def now(self) -> int:
-        """Simulation time in VCD units (ps); the simulation must be stopped."""
+        """Simulation time in VCD units (ps)."""
         return int((self.sim.ticks() - self.vcd_ticks) * TICK_PS)
 
     def press(self, code: int) -> int:
         """Hold the key until the firmware acts on it, then let go; the time it acted."""
-        self.sim.stop()
         self.sim.cmd(f"set hw port[2] 0x{key_pins(code):02x}")
         self.sim.run_to(self.sim.sym["_key_pressed"])
         t = self.now()
         self.sim.cmd("set hw port[2] 0xff")
-        self.sim.go()
         return t
 
     def set_pins(self, port: int, value: int) -> int:
-        self.sim.stop()
         self.sim.cmd(f"set hw port[{port}] 0x{value:02x}")
-        t = self.now()
-        self.sim.go()
-        return t
+        return self.now()
 
     def status(self) -> re.Match:
         self.sim.write(b"?")
@@ -103,7 +100,8 @@ class Board:
         return m
 
     def wait(self, state: str = "Idle", timeout: float = 120.0) -> re.Match:
-        """Until the status says `state` with the queue empty twice in a row."""
+        """Until the status says `state` with the queue empty twice in a row,
+        asked every 50 ms or more of simulated time."""
         deadline = time.time() + timeout
         seen = 0
         while time.time() < deadline:
@@ -114,34 +112,24 @@ class Board:
                     return s
             else:
                 seen = 0
-            time.sleep(0.05)
+            self.sim.run_for(0.05)
         raise TimeoutError(f"board not {state}: {s.group(0)}")
 
     def settle(self, seconds: float) -> None:
         """Let the board run for some simulated time (the LCD refreshes every 100 ms)."""
-        self.sim.stop()
-        target = self.sim.ticks() + int(seconds * 11_059_200)
-        while self.sim.ticks() < target:
-            self.sim.go()
-            time.sleep(0.05)
-            self.sim.stop()
-        self.sim.go()
+        self.sim.run_for(seconds)
 
     def draw(self, key: int | None = None, serial: bytes = b"") -> Mark:
         """Start something with a key or serial bytes; wait until it is done."""
         if key is not None:
             t = self.press(key)
         else:
-            self.sim.stop()
             t = self.now()
-            self.sim.go()
             self.sim.write(serial)
         mark = Mark(start=t)
         self.wait("Run")
         mark.status = self.wait("Idle").group(0)
-        self.sim.stop()
         mark.end = self.now()
-        self.sim.go()
         return mark
 
 
@@ -159,18 +147,13 @@ def session(image, tmp_path_factory):
     marks: dict[str, Mark] = {}
     with s51sim.Sim(image, vcd=vcd, timeout=120, extra_signals=("sfr[0x80]", "sfr[0xb0]")) as sim:
         board = Board(sim)
-        sim.go()
         banner = sim.read_until(rb"\r\n").decode()
-        sim.stop()
         board.start_trace()
-        sim.go()
         board.settle(0.2)                       # the LCD's start-up sequence
         for name, key in (("xp", K_XP), ("yp", K_YP), ("xn", K_XN), ("yn", K_YN), ("diag", K_DIAG)):
             marks[name] = board.draw(key)
         board.settle(0.25)
-        sim.stop()
         marks["after_jogs"] = Mark(start=board.now())
-        sim.go()
         for name, key in (("faster", K_FASTER), ("slower1", K_SLOWER), ("slower2", K_SLOWER),
                           ("faster2", K_FASTER)):
             marks[name] = Mark(start=board.press(key))
@@ -185,13 +168,9 @@ def session(image, tmp_path_factory):
             for d in number:
                 board.press(digit_key(int(d)))
                 board.settle(0.02)
-                sim.stop()
                 typed.append(board.now())
-                sim.go()
             board.settle(0.25)
-            sim.stop()
             typed.append(board.now())
-            sim.go()
             if number != "0200":
                 board.press(K_NO_FUNCTION)          # any key takes the number
         marks["typed"] = Mark(start=typed[0], notes={"times": typed})
@@ -204,9 +183,7 @@ def session(image, tmp_path_factory):
         marks["estop"] = Mark(start=board.set_pins(3, 0xFB))
         marks["estop"].status = board.wait("Alarm").group(0)
         board.settle(0.25)
-        sim.stop()
         marks["estop"].end = board.now()
-        sim.go()
         board.set_pins(3, 0xFF)
         # The panel's reset key (the serial pair is tests/test_firmware_link.py's).
         board.press(K_RESET)
@@ -221,7 +198,6 @@ def session(image, tmp_path_factory):
         board.set_pins(1, 0xFF)
         # Jitter: a long line at a high feed, the displays refreshing meanwhile.
         marks["fast"] = board.draw(serial=b"L 12000 0 9000\n")
-        sim.stop()
         sim.vcd_stop()
         ram = (sim.int32("_pos_x"), sim.int32("_pos_y"))
         serial = board.serial + sim._ser

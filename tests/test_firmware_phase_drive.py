@@ -115,11 +115,8 @@ def wait_idle(sim):
 def board_run(drive, vcd):
     base = mcu_image(DRIVE=drive)
     with s51sim.Sim(base, vcd=vcd, extra_signals=("sfr[0xa0]",)) as sim:
-        sim.go()
         banner = sim.read_until(rb"\r\n").decode()
-        sim.stop()
         sim.vcd_start()
-        sim.go()
         replies = []
         for command in COMMANDS:
             # One at a time, each to an idle board.
@@ -127,7 +124,6 @@ def board_run(drive, vcd):
             sim.write(command.encode() + b"\n")
             replies.append(sim.read_until(REPLY).decode().strip())
         status = wait_idle(sim)
-        sim.stop()
         sim.vcd_stop()
         ram = (sim.int32("_pos_x"), sim.int32("_pos_y"))
     return banner, replies, status, ram

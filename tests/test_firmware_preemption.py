@@ -12,7 +12,6 @@ move's cruise period is cut in the queue far below what this interrupt can
 do (the image caps a feed where it keeps up), so that the reload also takes
 its path for a late interrupt."""
 import sys
-import time
 
 import pytest
 
@@ -48,9 +47,7 @@ def reload_window(sym):
 
 def test_the_uart_and_the_e_stop_are_above_the_step_timer(image):
     with s51sim.Sim(image) as sim:
-        sim.go()
         sim.read_until(rb"ready[^\n]*\n")
-        sim.stop()
         assert sim.sfr(IP) == 0x11          # PS, PX0; PT0 low
 
 
@@ -66,18 +63,15 @@ def test_an_e_stop_at_any_instruction_of_the_timer_reload_stops_the_move(image):
     retis = sym.instructions("stepper", "_stepper_isr", "reti")
     for addr in window:
         with s51sim.Sim(image) as sim:
-            sim.go()
             sim.read_until(rb"ready[^\n]*\n")
             # Queued under a hold with its cruise period cut far below the interrupt's cost: the
             # image caps a line where its interrupt keeps up, and the late path runs only beyond.
             sim.write(b"!!?")
             sim.read_until(rb"<Hold[^\n]*\n")
             assert sim.line(f"L 30000 0 {isr_share.RAMP_TOP}").startswith("ok")
-            sim.stop()
             bench.saturate_queue(sim)
-            sim.go()
             sim.write(b"~~")
-            sim.stop()
+            sim.run_for(0.5)
             sim.run_to(addr, timeout=120)           # the late path: near the top of the climb
             sim.cmd("set hw port[3] 0xfb")   # INT0 (P3.2) falls
             sim.run_to(sym["_estop_isr"])
@@ -87,11 +81,9 @@ def test_an_e_stop_at_any_instruction_of_the_timer_reload_stops_the_move(image):
             sim.go()
             sim.wait_stop()
             tcon = sim.sfr(TCON)
-            sim.go()
-            time.sleep(0.3)
+            sim.run_for(0.3)
             sim.write(b"?")
             status = sim.read_until(rb"<[^>]*>").decode()
-            sim.stop()
             x1 = sim.int32("_pos_x")
         assert not tcon & TR0, f"0x{addr:04x}: Timer 0 running when the step interrupt returned"
         assert 0 < x0 <= x1 <= x0 + 1, f"0x{addr:04x}: X {x0} at the e-stop, then {x1}"

@@ -79,11 +79,8 @@ def board_steps(vcd_path):
 def run(image, tmp_path_factory):
     vcd = str(tmp_path_factory.mktemp("s51") / "p1.vcd")
     with s51sim.Sim(image, vcd=vcd) as sim:
-        sim.go()
         banner = sim.read_until(rb"\r\n").decode()
-        sim.stop()
         sim.vcd_start()
-        sim.go()
         sim.write(b"$I\n")
         info = sim.read_until(rb"\]").decode() + sim.read_until(REPLY).decode()
         replies = []
@@ -96,7 +93,6 @@ def run(image, tmp_path_factory):
             status = STATUS.search(sim.read_until(rb">[^\n]*\n").decode())
             if status.group(1) == "Idle":
                 break
-        sim.stop()
         sim.vcd_stop()
         ram = (sim.int32("_pos_x"), sim.int32("_pos_y"))
         max_sp = sim.max_sp()
@@ -173,9 +169,7 @@ def test_position_copy_takes_a_step_between_its_reads():
     out)."""
     require_s51()
     with s51sim.Sim(mcu_image()) as sim:
-        sim.go()
         sim.read_until(rb"ready[^\n]*\n")
-        sim.stop()
         pos_x, copy = sim.sym["_pos_x"], sim.sym["_pos_copy"]
         sim.write(b"?")
         sim.run_to(sim.sym["_stepper_snapshot"])
@@ -189,7 +183,6 @@ def test_position_copy_takes_a_step_between_its_reads():
         sim.set_iram(pos_x, (1).to_bytes(4, "little"))
         sim.run_to(sim.sym.instructions("stepper", "_stepper_snapshot", "ret")[-1])
         assert sim.iram(copy, 8) == (1).to_bytes(4, "little") + bytes(4)
-        sim.go()
         status = STATUS.search(sim.read_until(rb"<[^>]*>[^\n]*\n").decode())
         assert status and status.group(2, 3) == ("1", "0")
 

@@ -92,11 +92,8 @@ def board(tmp_path_factory):
     require_s51()
     vcd = str(tmp_path_factory.mktemp("z") / "p1.vcd")
     with s51sim.Sim(mcu_image(ZAXIS="1"), vcd=vcd) as sim:
-        sim.go()
         sim.read_until(rb"\r\n")
-        sim.stop()
         sim.vcd_start()
-        sim.go()
         replies = []
         for command in COMMANDS:
             # One at a time, each to an idle board.
@@ -104,7 +101,6 @@ def board(tmp_path_factory):
             sim.write(command.encode() + b"\n")
             replies.append(sim.read_until(REPLY).decode().strip())
         status = wait_idle(sim)
-        sim.stop()
         sim.vcd_stop()
         ram = (sim.int32("_pos_x"), sim.int32("_pos_y"))
     return dict(replies=replies, status=status, ram=ram, vcd=vcd)

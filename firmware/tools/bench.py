@@ -114,16 +114,15 @@ def saturate_queue(sim, offs=None):
 
 
 def measure(sim, command, saturate, before_run=None, stream=b""):
-    """Run one command to its end with the VCD recording.  The command is
-    queued under a feed hold and released with `~`, so that it can be
-    changed in the queue before the motion starts (the simulator stops
-    long after it is asked to).  before_run(sim): called with the simulator
-    stopped, just before the run is released.  stream: bytes written to the
+    """Run one command to its end with the VCD recording, from a stopped
+    simulator.  The command is queued under a feed hold and released with
+    `~`, so that it can be changed in the queue before the motion starts.
+    before_run(sim): called with the simulator stopped, just before the run
+    is released.  stream: bytes written to the
     board's UART right after the release, which s51 takes in at the baud
     rate while the run goes on, without s51's flow control: the stream
     outlasts the run."""
     offs = segment_offsets(s51sim.FIRMWARE / "core" / "segment.h")
-    sim.go()
     sim.write(b"!!?")
     sim.read_until(rb"<Hold[^\n]*\n")
     for line in lines_of(command):
@@ -131,7 +130,6 @@ def measure(sim, command, saturate, before_run=None, stream=b""):
         reply = sim.read_until(rb"(?:ok|err|rs)[^\r\n]*\r\n").decode().strip()
         if not reply.startswith("ok"):
             raise RuntimeError(f"{line!r}: {reply!r}")
-    sim.stop()
     if saturate:
         saturate_queue(sim, offs)
     # The end of the motion: the interrupt finds the queue empty and stops.
@@ -233,9 +231,7 @@ def run(base, clock_hz, command, saturate, stream=b""):
         vcd = str(Path(tmp) / "trace.vcd")
         with s51sim.Sim(base, vcd=vcd, clock_hz=clock_hz) as sim:
             overhead = isr_overhead(sim.sym)
-            sim.go()
             sim.read_until(rb"ready[^\n]*\n")
-            sim.stop()
             measure(sim, command, saturate, stream=stream)
         return analyse(vcd, overhead, clock_hz)
 

@@ -68,9 +68,7 @@ def run(base, command, end, vcd, saturate=False):
     keeps up."""
     with s51sim.Sim(base, vcd=vcd, timeout=60) as sim:
         overhead = bench.isr_overhead(sim.sym)
-        sim.go()
         sim.read_until(rb"ready[^\n]*\n")
-        sim.stop()
         if saturate:
             bench.measure(sim, command, True)
         else:

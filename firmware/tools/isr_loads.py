@@ -56,7 +56,6 @@ def paths():
 def interrupts(base, command):
     """(entry, cycles) of every step interrupt of the command's run, in machine cycles."""
     with s51sim.Sim(base) as sim:
-        sim.go()
         sim.read_until(rb"ready[^\n]*\n")
         sim.write(b"!!?")
         sim.read_until(rb"<Hold[^\n]*\n")
@@ -64,7 +63,6 @@ def interrupts(base, command):
             reply = sim.line(line)
             if not reply.startswith("ok"):
                 raise RuntimeError(f"{line!r}: {reply!r}")
-        sim.stop()
         sim.cmd("timer add isr_run 1 isr")
         entry = sim.sym["_stepper_isr"]
         stop, = sim.sym.instructions("stepper_isr", "_stepper_isr", "clr", "_st_running")

@@ -337,9 +337,7 @@ def share_run(base, command):
     with tempfile.TemporaryDirectory() as tmp:
         vcd = str(Path(tmp) / "trace.vcd")
         with s51sim.Sim(base, vcd=vcd) as sim:
-            sim.go()
             sim.read_until(rb"ready[^\n]*\n")
-            sim.stop()
             sim.cmd("timer add isr_run 1 isr")
             sim.cmd("timer add all_run 1")
 

@@ -85,11 +85,9 @@ def _cycles(sim, start, stop, send=b""):
 def measure_commands(base) -> List[Cost]:
     out = []
     with s51sim.Sim(base) as sim:
-        sim.go()
         sim.read_until(rb"ready[^\n]*\n")
         sim.write(b"!!?")
         sim.read_until(rb"<Hold[^\n]*\n")
-        sim.stop()
         sym = sim.sym
         receive = sym["_receive_byte"]
         after_receive = sym.instructions("protocol", "_protocol_poll", "lcall", "_receive_byte")[0] + 3
@@ -115,9 +113,7 @@ def measure_commands(base) -> List[Cost]:
             reply_cycles = (sim.ticks() - t0) // 12
             spins = sim.fetches(full, full).get(full, 0) - sim.fetches(putc, putc).get(putc, 0) - spins0
             wait = SPIN_CYCLES * spins
-            sim.go()
             reply = sim.read_until(rb"\r\n")
-            sim.stop()
             if not reply.startswith(b"ok"):
                 raise RuntimeError(f"{wire!r}: {reply!r}")
             out.append(Cost(name, wire, reply, rx, parse, plan, reply_cycles - wait, wait))

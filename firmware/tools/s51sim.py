@@ -24,7 +24,12 @@ Used by tools/bench.py and tests/test_firmware_sim.py.  The simulated board:
   bytes still waiting when the simulation stops (at a breakpoint) then keep
   s51's command loop on the pty and away from the command port for good: a
   host that writes more than the firmware takes before such a stop (a
-  stream beside a run) turns flow control off first (Sim.flow_control);
+  stream beside a run) turns flow control off first (Sim.flow_control).
+  Written to a stopped simulation, Sim.write hands over one byte at a time,
+  each once the firmware has read the one before;
+- a stopped simulation run in bounded steps (Sim.run_for, Sim.read_until):
+  a `stop` after `go` waits for s51's next look at its command port, a
+  million instructions away, where `step N` stops at once;
 - the simulator's command line on a local TCP port (`-Z`), prompt a NUL
   byte (`-P`), no colours (`-b`);
 - optionally a VCD recording of port 1 (the step/direction/pen port) and of
@@ -54,6 +59,16 @@ CLOCK_HZ_6T = 2 * CLOCK_HZ
 CYCLE_PS = 12 * 10**12 / CLOCK_HZ          # one machine cycle in picoseconds
 
 FIRMWARE = Path(__file__).resolve().parent.parent
+
+# Bounded runs of a stopped simulation (Sim.run_for, Sim.read_until, and
+# Sim.write's waits): s51 stops after a `step N` at once, where a `stop`
+# waits for its next look at the command port, a million instructions away.
+# CHUNK instructions are some 40-90 ms of simulated time, BYTE_INSTRUCTIONS
+# about a byte time at 9600 baud (960 machine cycles; an instruction takes
+# one to four, most one or two).
+CHUNK = 50_000
+STEP_MAX = 2_000_000
+BYTE_INSTRUCTIONS = 1_000
 
 
 def s51_path():
@@ -214,15 +229,50 @@ class Sim:
         return self._until_con(rb"\x00", timeout)
 
     def go(self):
-        """Let the simulation run (in the background)."""
+        """Let the simulation run (in the background), until stop()."""
         self.sock.sendall(b"go\n")
         self._until_con(rb"Simulation started[^\n]*\n")
         self.running = True
 
     def stop(self):
+        """Stop a simulation let run by go().  Slow: s51 reads its command
+        port once a million instructions while it runs (1-3 s of host time);
+        a stopped simulation run in bounded steps (run_for, read_until) needs
+        none."""
+        if not self.running:
+            return ""
         self.sock.sendall(b"stop\n")
         out = self._until_con(rb"Stop at.*?\x00")
         self.running = False
+        return out
+
+    def _step(self, instructions, timeout=None):
+        """Run `instructions` instructions of the stopped simulation; the
+        text of the stop.  A breakpoint on the way stops it there."""
+        assert not self.running, "stop the simulation first"
+        self.sock.sendall(f"step {instructions}\n".encode())
+        try:
+            return self._until_con(rb"Stop at.*?\x00", timeout)
+        except TimeoutError as e:
+            raise TimeoutError(f"{e} (a bounded run that does not end: bytes written to the UART "
+                               f"while the simulation was stopped, past s51sim.Sim.write?)") from None
+
+    def run_for(self, seconds=None, instructions=None):
+        """Run the stopped simulation for at least `seconds` of simulated time
+        (or exactly `instructions` instructions) and leave it stopped at once,
+        without the wait of stop(): an instruction takes one to four machine
+        cycles, so up to four times as long as asked in simulated time.  A
+        breakpoint on the way ends it early (the stop text says which)."""
+        if instructions is None:
+            instructions = max(1, round(seconds * self.clock_hz / 12))
+        out = ""
+        while instructions > 0:
+            n = min(instructions, STEP_MAX)
+            out = self._step(n)
+            instructions -= n
+            if "stepped" not in out:
+                break
+        self._drain_serial()
         return out
 
     def run_to(self, addr, timeout=None):
@@ -294,10 +344,31 @@ class Sim:
 
     # --- the board's UART --------------------------------------------------
     def write(self, data):
-        os.write(self.rx_master, data)
+        """Bytes to the board's UART.  Written to a stopped simulation, each
+        waits (the simulation runs meanwhile, in steps of a byte time) until
+        the firmware has read the one before it (s51's flow control lets the
+        UART take a byte then): s51 takes it in at once, stopped, and a byte it
+        could not take would keep it from its command port for good (the
+        module's docstring)."""
+        if self.running:
+            os.write(self.rx_master, data)
+            return
+        deadline = time.time() + self.timeout
+        for byte in data:
+            while self.cmd("expr uart0_able_receive").split()[-2:-1] != ["1"]:
+                if time.time() > deadline:
+                    raise TimeoutError(f"serial: the firmware reads no byte (writing {data!r})")
+                self._step(BYTE_INSTRUCTIONS)
+            os.write(self.rx_master, bytes([byte]))
+
+    def _drain_serial(self):
+        while select.select([self.tx_master], [], [], 0)[0]:
+            self._ser += os.read(self.tx_master, 4096)
 
     def read_until(self, pattern, timeout=None):
-        """Serial output up to and including the first match of pattern."""
+        """Serial output up to and including the first match of pattern.  A
+        stopped simulation is run meanwhile in bounded steps (CHUNK
+        instructions) and left stopped within one of the match."""
         deadline = time.time() + (timeout or self.timeout)
         while True:
             m = re.search(pattern, self._ser, re.S)
@@ -306,9 +377,15 @@ class Sim:
                 return out
             if time.time() > deadline:
                 raise TimeoutError(f"serial: waiting for {pattern!r}, got {self._ser[-300:]!r}")
-            r, _, _ = select.select([self.tx_master], [], [], 0.02)
-            if r:
-                self._ser += os.read(self.tx_master, 4096)
+            if self.running:
+                r, _, _ = select.select([self.tx_master], [], [], 0.02)
+                if r:
+                    self._ser += os.read(self.tx_master, 4096)
+            else:
+                stop = self._step(CHUNK, max(1.0, deadline - time.time()))
+                self._drain_serial()
+                if "stepped" not in stop:
+                    raise RuntimeError(f"serial: waiting for {pattern!r}, the simulation stopped: {stop[:200]!r}")
 
     def line(self, text, timeout=None):
         """Send one command line, return the reply line (without CR LF)."""
