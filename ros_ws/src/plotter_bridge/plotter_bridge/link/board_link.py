@@ -133,6 +133,7 @@ class BoardLink:
         self._credit_from = 0                     # first host seq that report did not cover
         self._inbuf = b""
         self._last_status_req = -1e9
+        self._status_due = 0.0
         self._status_pending = False
         self._status_bytes = STATUS_BYTES
         self._probe: Optional[_Probe] = None
@@ -242,8 +243,19 @@ class BoardLink:
             interval = status_period(self.status_interval, self.baud, self.status_share, self._status_bytes)
         else:
             interval = status_period(self.status_interval, self.baud, self.wait_share, self._status_bytes)
-        if now - self._last_status_req >= (interval if not self._status_pending else max(interval, 0.3)):
+        wait = interval if not self._status_pending else max(interval, 0.3)
+        if now - self._last_status_req >= wait:
             self.request_status()
+        self._status_due = self._last_status_req + wait
+
+    def quiet_for(self, now: float) -> float:
+        """Seconds until the pump has something to do that no byte from the
+        board brings: the next status request, or at once while a submitted
+        command could go out (acknowledgements and status reports, which
+        free the board's room, arrive on the port)."""
+        if self._send_pos < len(self._window) and not self.paused and self._credit() > 0:
+            return 0.0
+        return max(0.0, self._status_due - now)
 
     def _credit(self) -> int:
         """Queue slots the board still has for lines not yet sent."""

@@ -200,6 +200,13 @@ class BoardSession:
             if self.connection == CONNECTING:
                 self._check_silence(self.clock())
 
+    def quiet_for(self, most: float) -> float:
+        """Seconds the pump may wait for the port, at most `most`."""
+        with self.lock:
+            if self.port is None or self.link is None:
+                return most
+            return min(most, self.link.quiet_for(self.clock()))
+
     def _connect(self, now: float) -> None:
         try:
             port = self._open_port()

@@ -105,6 +105,9 @@ def pen_label(pen_changes: List[str], change: int) -> str:
     return pen_changes[change] if change < len(pen_changes) and pen_changes[change] else f"pen {change + 1}"
 
 
+IO_IDLE_WAIT = 0.01    # s: the most a command queued from ROS waits for the serial thread
+
+
 def wait_readable(port, timeout: float) -> None:
     """Until the port has bytes to read, at most `timeout` seconds: a reply
     is acted on when it arrives, not at the next tick of a timer (at 115200
@@ -246,7 +249,10 @@ class SerialBridge(Node):
             if port is None:
                 time.sleep(0.02)
             else:
-                wait_readable(port, 0.001)
+                # Woken by the board's bytes; else when a status request is due, and
+                # every IO_IDLE_WAIT for commands queued meanwhile (a loop every
+                # millisecond took a tenth of a core at rest).
+                wait_readable(port, max(0.001, self.session.quiet_for(IO_IDLE_WAIT)))
 
     def _log(self, text: str) -> None:
         self.get_logger().info(text)
