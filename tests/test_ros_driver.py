@@ -441,9 +441,14 @@ def test_positions_are_in_metres_and_mm_fields_in_millimetres(graph):
     from action_msgs.msg import GoalStatus
     from plotter_interfaces.action import RunProgram
     env = dict(os.environ, ROS_DOMAIN_ID=str(graph.domain))
-    watch = subprocess.Popen([str(REPO / ".venv" / "bin" / "plotter"), "watch", "--timeout", "30"],
-                             stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, env=env)
-    time.sleep(2.0)
+    watch = subprocess.Popen([str(REPO / ".venv" / "bin" / "plotter"), "watch", "--timeout", "120"],
+                             stdout=subprocess.PIPE, stderr=subprocess.DEVNULL, text=True, env=env)
+    lines: list = []
+    reader = threading.Thread(target=lambda: lines.extend(iter(watch.stdout.readline, "")), daemon=True)
+    reader.start()
+    # The bridge publishes the position with each status report, at rest too: a first line
+    # says that the watch hears the topic before the job starts.
+    wait_until(lambda: lines, 60, "plotter watch's first line")
     client = graph.probe.action_client(RunProgram, "run_program")
     (handle,) = _send_all(client, [RunProgram.Goal(name="units", program="G21 G90\nG0 X50 Y30\nM2\n")], [[]])
     res = _wait(handle.get_result_async(), 60)
@@ -457,10 +462,11 @@ def test_positions_are_in_metres_and_mm_fields_in_millimetres(graph):
         return p is not None and abs(p.point.x - 0.050) < 1e-9 and abs(p.point.y - 0.030) < 1e-9 \
             and s.x_mm == 50.0 and s.y_mm == 30.0
     wait_until(settled, 10, "position 0.050, 0.030 m and state 50, 30 mm")
-    time.sleep(1.0)
+    wait_until(lambda: any("X    50.000  Y    30.000 mm" in line for line in lines), 30,
+               "plotter watch printing X 50 Y 30 mm")
     watch.terminate()
-    out, _ = watch.communicate(timeout=30)
-    assert "X    50.000  Y    30.000 mm" in out, out[-500:]
+    watch.wait(timeout=30)
+    reader.join(timeout=30)
 
 
 # --------------------------------------------------------------------- a missing port
