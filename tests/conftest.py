@@ -173,13 +173,14 @@ EXPECTED_SKIPS: tuple = ()
 # The figures of docs/testing.md, longest first; the other files follow in
 # their own order.
 LONGEST_FILES = (
-    "test_firmware_panel.py", "test_firmware_isr_share.py", "test_firmware_asm_equivalence.py",
-    "test_firmware_plan_cost.py", "test_firmware_preemption.py", "test_firmware_interpolation.py",
-    "test_follow.py", "test_generator_corpus.py", "test_real_programs.py", "test_follow_command.py",
-    "test_arcfit.py", "test_gcode_oracle.py", "test_firmware_follow.py",
+    "test_firmware_isr_share.py", "test_follow.py", "test_firmware_asm_equivalence.py",
+    "test_firmware_interpolation.py", "test_gcode_oracle.py", "test_generator_corpus.py",
+    "test_firmware_panel.py", "test_real_programs.py", "test_firmware_preemption.py", "test_arcfit.py",
+    "test_firmware_follow.py", "test_homing.py", "test_follow_command.py", "test_firmware_plan_cost.py",
     # the ros stage's
-    "test_web_ui.py", "test_ros_driver.py", "test_plotter_client.py", "test_plotter_cli.py",
-    "test_follow_graph.py", "test_plotter_follow.py", "test_fleet.py",
+    "test_web_ui.py", "test_ros_driver.py", "test_plotter_client.py", "test_follow_graph.py",
+    "test_plotter_cli.py", "test_plotter_follow.py", "test_fleet.py", "test_svg_layers.py",
+    "test_host_stalls.py",
 )
 
 
