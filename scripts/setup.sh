@@ -130,6 +130,9 @@ if [ ! -f "$WS/install/setup.bash" ] || [ "$(cat "$BUILD_STAMP" 2>/dev/null)" !=
         export PATH="$VENV/bin:$PATH" VIRTUAL_ENV="$VENV"
         export AMENT_PREFIX_PATH="$VENV" CMAKE_PREFIX_PATH="$VENV" COLCON_PREFIX_PATH="$VENV"
         unset PYTHONPATH PYTHONDONTWRITEBYTECODE
+        # colcon's own make flags add -l<cores>: with the machine's load at its
+        # core count (this build, a test run beside it) make then ran one job.
+        export MAKEFLAGS="-j$(nproc)"
         "$VENV/bin/colcon" --log-base log build \
             --base-paths src --build-base build --install-base install \
             --event-handlers console_cohesion- console_start_end- console_package_list- summary+ status- \
