@@ -262,12 +262,20 @@ def test_emergency_stop_and_reset(page):
     wait_until(lambda: text(page.driver, "state") == "IDLE", 15, "IDLE after reset")
 
 
-def run_and_cancel(page, after: float) -> None:
-    """Run the checked file, cancel it `after` s into its run, and wait until the board rests."""
+def run_and_cancel(page, steps: int) -> None:
+    """Run the checked file, cancel it once the board has taken `steps` steps of it (on a
+    busy machine a fixed time into the run may find it not yet moving, or done), and wait
+    until the board rests."""
     wait_until(lambda: "fits" in text(page.driver, "check-result"), 30, "the check")
+    offset = page.trace.stat().st_size
+
+    def stepped() -> int:
+        with open(page.trace, "rb") as f:           # the trace's rows written since the run
+            f.seek(offset)
+            return f.read().count(b"\n")
     click_for_job(page, "run")
     wait_until(lambda: text(page.driver, "state") == "RUNNING", 30, "RUNNING")
-    time.sleep(after)
+    wait_until(lambda: stepped() >= steps, 60, f"{steps} steps of the job")
     page.driver.find_element("id", "cancel").click()
     wait_job(page, "canceled", 30)
     wait_until(lambda: text(page.driver, "state") == "IDLE", 30, "IDLE after the cancel")
@@ -279,12 +287,12 @@ def test_cancel_stops_the_job_and_set_origin_zeroes_the_position(page):
     program = "(long)\nG21 G90\nG0 X20 Y40\nM3\n" + "G1 X180 Y40 F1200\nG1 X20 Y41\n" * 3 + "M5\nM2\n"
     upload(page, "long.gcode", program)
     start, before = pen_steps(page.driver), len(read_trace(page.trace))
-    run_and_cancel(page, after=1.0)
+    run_and_cancel(page, steps=1000)
     stopped = read_trace(page.trace)
     time.sleep(1.0)
     assert read_trace(page.trace) == stopped, "the board moved after the cancel"
-    # Stopped part way: every step the program's, and far fewer than all of them (the
-    # program takes some 50 s, the cancel came after 1).
+    # Stopped part way: every step the program's, and far fewer than all of them (some 80000;
+    # the cancel came after 1000).
     expected = program_steps(program, graph_config(), start)
     why = drawn_whole([(x, y) for _, x, y in stopped[before:]], expected, start, STEPS_PER_MM)
     found = re.fullmatch(r"the board stepped (\d+) of (\d+) steps, .*", why)
@@ -395,7 +403,7 @@ def test_a_job_stopped_half_way_is_resumed_from_the_page(page):
     wait_until(lambda: text(page.driver, "state") == "IDLE", 30, "IDLE")
     upload(page, "halfway.gcode", "(halfway)\nG21 G90\nG0 X20 Y60\nM3\n" + "G1 X180 Y60 F3000\nG1 X20 Y61\n" * 2
            + "G1 X30 Y70\nM5\nM2\n")
-    run_and_cancel(page, after=1.5)
+    run_and_cancel(page, steps=6000)
     row = "#jobs tr:first-child"
     wait_until(lambda: "halfway" in page.driver.find_element("css selector", row).text, 15, "the job in the list")
     assert "interrupted" in page.driver.find_element("css selector", row).text
