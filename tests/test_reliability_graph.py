@@ -188,8 +188,12 @@ def test_bad_inputs_are_refused_and_no_node_dies(graph):
                   ShapeGoal(shape="\x00" * 1000)]
     for goal in bad_shapes:
         shape_pub.publish(goal)
-    bad_programs = ["G1 X10 Q5\n", "G0 X1000\n", "\x00\xff garbage", "G2 X10 I0 J0 F100\n",
-                    "G1 X" + "9" * 5000 + "\n", "(" * 100000, "G0 X1e400\n"]
+    # Each with the reason its error must give, at line 1 (a ROS string ends at its NUL: the
+    # third arrives empty).
+    bad_programs = {"G1 X10 Q5\n": "unsupported word letter 'Q'", "G0 X1000\n": "outside the work area",
+                    "\x00\xff garbage": "empty program", "G2 X10 I0 J0 F100\n": "zero-radius arc",
+                    "G1 X" + "9" * 5000 + "\n": "line too long", "(" * 100000: "unclosed comment",
+                    "G0 X1e400\n": "unsupported word letter 'E'"}
     for text in bad_programs:
         program_pub.publish(String(data=text))
     try:
@@ -198,7 +202,9 @@ def test_bad_inputs_are_refused_and_no_node_dies(graph):
                    "a reason for every bad program")
     finally:
         print(errors)
-    assert any("line 1" in e for e in errors["program_error"])
+    for reason in bad_programs.values():
+        named = [e for e in errors["program_error"] if "line 1: " in e and reason in e]
+        assert len(named) == 1, (reason, errors["program_error"])
 
     # run_program goals: each fails with a message naming the reason.
     for kw, word in ((dict(program="G1 X10 Y10 F100\nG1 X500\n"), "line 2"),
