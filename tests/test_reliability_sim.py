@@ -46,6 +46,14 @@ def test_faulty_channel_is_seeded_counts_and_keeps_order():
     got = clean.receive(0.0)
     got += clean.receive(1.0)
     assert got == b"abcdef" and clean.counts.delayed > 0
+    # Dropped, doubled and held back, the bytes that come out come in the order they went in.
+    ordered = FaultyChannel(FaultSpec(drop=0.1, dup=0.1, delay=0.1, delay_ms=10, seed=5), 2)
+    ordered.send(bytes(range(256)), 0.0)
+    got = ordered.receive(0.0) + ordered.receive(1.0)
+    assert min(ordered.counts.dropped, ordered.counts.duplicated, ordered.counts.delayed) > 10
+    assert list(got) == sorted(got), "a byte overtook an earlier one"
+    assert len(set(got)) == 256 - ordered.counts.dropped
+    assert len(got) == 256 - ordered.counts.dropped + ordered.counts.duplicated
     del out
 
 
