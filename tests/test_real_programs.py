@@ -29,7 +29,7 @@ from plotter_bridge.gcode.dialect import GCodeOptions  # noqa: E402
 from plotter_bridge.gcode.limits import WorkArea  # noqa: E402
 from plotter_bridge.gcode.parser import decode_program, moves_of, parse_program  # noqa: E402
 from plotter_bridge.motion.compiler import StreamerConfig  # noqa: E402
-from plotter_bridge.sim.expected import program_steps  # noqa: E402
+from plotter_bridge.sim.expected import drawn_whole, program_steps  # noqa: E402
 
 REPO = Path(__file__).resolve().parent.parent
 PLOTTER = REPO / ".venv" / "bin" / "plotter"
@@ -196,6 +196,9 @@ def test_drawn_on_the_mock_board(program, streams):
     worst = max(set(steps), key=index.distance)
     assert index.distance(worst) <= ON_PATH, f"{program.name}: the board stepped off the path at {worst}"
     assert math.dist(steps[-1], (moves[-1].x, moves[-1].y)) <= 1 / STEPS_PER_MM
+    # All of it, step for step: the host core's steps for the program as the streamer compiles it.
+    drawn = [(x, y) for _, x, y in read_trace(trace)]
+    assert drawn_whole(drawn, program_steps(text_of(program), config(program)), (0, 0), STEPS_PER_MM) == ""
     assert png.stat().st_size > 0 and f"picture: {png}" in r.stderr
 
 
