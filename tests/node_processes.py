@@ -51,6 +51,12 @@ def new_domain() -> int:
     return _domains[next(_next_domain) % len(_domains)]
 
 
+# How long a node process may take to come up: importing rclpy and joining the graph take a
+# second on an idle machine, tens of seconds with four test workers and two CPU-bound
+# processes on two cores.  A bound for a hang, not a speed.
+STARTUP_S = 120.0
+
+
 def wait_until(predicate: Callable[[], bool], timeout: float = 30.0, what: str = "condition") -> None:
     end = time.monotonic() + timeout
     while time.monotonic() < end:
@@ -157,7 +163,7 @@ class PlotterGraph:
         self.board = NodeProcess("plotter_bridge.nodes.mock_board", domain,
                                  ns + ("-p", f"link:={self.link}", "-p", f"trace:={self.trace}",
                                        "-p", f"seq_log:={self.seq_log}") + tuple(board_args))
-        wait_until(self.link.exists, 20, "the mock board's pty link")
+        wait_until(self.link.exists, STARTUP_S, "the mock board's pty link")
         self.bridge = NodeProcess("plotter_bridge.nodes.serial_bridge", domain,
                                   ns + ("-p", f"port:={self.link}") + tuple(bridge_args))
         self._streamer_args = ns + ("-p", f"journal_dir:={self.journal}") + tuple(streamer_args)

@@ -16,7 +16,7 @@ from typing import List, Tuple
 
 import pytest
 
-from node_processes import NodeProcess, PlotterGraph, new_domain, params_file, read_trace, wait_until
+from node_processes import STARTUP_S, NodeProcess, PlotterGraph, new_domain, params_file, read_trace, wait_until
 from ros_graph import HELD_REPORTS, board_reports, held_still
 
 pytestmark = pytest.mark.ros
@@ -58,7 +58,7 @@ def page(tmp_path_factory):
     ui = web_ui(domain, "-p", f"port:={port}", "-p", f"journal_dir:={graph.journal}")
     driver = None
     try:
-        wait_until(lambda: f"plotter page on http://127.0.0.1:{port}/" in ui.output(), 30, "the web server")
+        wait_until(lambda: f"plotter page on http://127.0.0.1:{port}/" in ui.output(), STARTUP_S, "the web server")
         driver = browser()
         driver.get(f"http://127.0.0.1:{port}/")
         graph.driver, graph.ui, graph.url, graph.work = driver, ui, f"http://127.0.0.1:{port}/", work
@@ -454,7 +454,7 @@ def test_a_disconnected_board_is_shown_and_nothing_is_sent(tmp_path):
     ui = web_ui(domain, "-p", f"port:={port}")
     driver = browser()
     try:
-        wait_until(lambda: "plotter page on" in ui.output(), 30, "the web server")
+        wait_until(lambda: "plotter page on" in ui.output(), STARTUP_S, "the web server")
         driver.get(f"http://127.0.0.1:{port}/")
         wait_until(lambda: "not connected" in text(driver, "last-error")
                    and "/nonexistent/tty9" in text(driver, "last-error"), 30, "the bridge's error on the page")
@@ -492,7 +492,7 @@ def test_binding_beyond_loopback_needs_a_token_and_every_request_carries_it():
     ui = web_ui(domain, "-p", "host:=0.0.0.0", "-p", f"port:={port}", "-p", f"token:={token}")
     base = f"http://127.0.0.1:{port}"
     try:
-        wait_until(lambda: "plotter page on" in ui.output(), 30, "the web server")
+        wait_until(lambda: "plotter page on" in ui.output(), STARTUP_S, "the web server")
         assert token not in ui.output()
         refused = [("GET", "/", {}), ("GET", "/static/app.js", {}), ("GET", "/ws", {}),
                    ("POST", "/api/jog", {"X-Plotter": "1"}), ("POST", "/api/button/estop", {"X-Plotter": "1"}),
