@@ -86,3 +86,44 @@ def test_a_shutdown_between_the_check_and_the_wait_ends_spinning_cleanly(monkeyp
     finally:
         threading.excepthook = hook
         rclpy.try_shutdown(context=context)
+
+
+
+def test_an_entity_destroyed_while_the_wait_set_is_built_does_not_stop_the_spin(monkeypatch):
+    """The page swaps its subscriptions from its web thread when the user picks another plotter
+    (web_ui_node._connect).  rclpy 7.1.6 builds each wait set from a snapshot of the node's
+    entities and, for a subscription's QoS event handler destroyed after the snapshot, fails in
+    add_to_wait_set with InvalidHandle ("cannot use Destroyable because destruction was
+    requested") instead of leaving it out as it does for the other kinds: seen as the page's
+    node dying.  Here the destruction is put inside that window; spin_step takes the stale
+    snapshot for what it is and the next step builds its wait set without the entity."""
+    import rclpy
+    from rclpy.context import Context
+    from rclpy.event_handler import EventHandler
+    from rclpy.executors import MultiThreadedExecutor
+    from std_msgs.msg import String
+    from plotter_bridge.nodes.spinning import spin_step
+    context = Context()
+    rclpy.init(context=context, domain_id=new_domain())
+    node = rclpy.create_node("swapping", context=context)
+    executor = MultiThreadedExecutor(num_threads=2, context=context)
+    executor.add_node(node)
+    sub = node.create_subscription(String, "swapped", lambda _m: None, 10)
+    enter = EventHandler.__enter__
+    destroyed = []
+
+    def destroyed_after_the_snapshot(handler):
+        if not destroyed:
+            destroyed.append(node.destroy_subscription(sub))
+        return enter(handler)
+    monkeypatch.setattr(EventHandler, "__enter__", destroyed_after_the_snapshot)
+    try:
+        assert spin_step(executor, 0.01)
+        assert destroyed == [True]
+        assert spin_step(executor, 0.01)        # the next wait set is built without it
+        assert sub not in node.subscriptions
+    finally:
+        monkeypatch.undo()
+        executor.shutdown()
+        node.destroy_node()
+        rclpy.try_shutdown(context=context)

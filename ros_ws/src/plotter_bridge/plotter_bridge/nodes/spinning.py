@@ -18,6 +18,7 @@ import threading
 import time
 
 from rclpy._rclpy_pybind11 import RCLError
+from rclpy.exceptions import InvalidHandle
 from rclpy.executors import Executor
 
 STEP_S = 0.1          # s a spin step waits for work: how soon the thread sees stop()
@@ -46,7 +47,12 @@ class SpinThread:
 def spin_step(executor: Executor, timeout: float) -> bool:
     """One spin step of at most `timeout` s; False once the context is shut down.  A shutdown
     (Ctrl-C's handler) between the check and the wait set's creation makes rcl fail "the given
-    context is not valid": the same end, not an error."""
+    context is not valid": the same end, not an error.
+
+    An entity destroyed by another thread (the page's web thread swapping subscriptions) after
+    the step took its snapshot of the node's entities makes rclpy 7.1.6 fail with InvalidHandle
+    while it adds a QoS event handler to the wait set, where it leaves the other kinds out: the
+    snapshot was stale, and the next step's is not."""
     if not executor.context.ok():
         return False
     try:
@@ -55,6 +61,8 @@ def spin_step(executor: Executor, timeout: float) -> bool:
         if executor.context.ok():
             raise
         return False
+    except InvalidHandle:
+        return executor.context.ok()
     return True
 
 
