@@ -77,10 +77,16 @@ class SimRig:
         return job
 
     def executed_of(self, job: Job) -> List[int]:
-        """The job's commands the board started, as indices, in order (seq log)."""
-        first = job.first % SEQ_MOD
-        return [(s - first) % SEQ_MOD for s in self.core.seq_log()
-                if (s - first) % SEQ_MOD < len(job.commands)]
+        """The job's commands the board started, as indices, in order (seq log).  The log holds
+        16-bit numbers: each is read as the host number nearest the one before it, so a job
+        past 2^16 commands is read whole."""
+        host, out = job.first - 1, []
+        for wire in self.core.seq_log():
+            d = (wire - host) % SEQ_MOD
+            host += d - SEQ_MOD if d >= SEQ_MOD // 2 else d
+            if 0 <= host - job.first < len(job.commands):
+                out.append(host - job.first)
+        return out
 
     def close(self) -> None:
         self.core.close()

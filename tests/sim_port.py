@@ -15,6 +15,7 @@ from plotter_bridge.sim.faults import FaultSpec, FaultyChannel
 from plotter_bridge.sim.firmware_core import CYCLES_PER_S, FirmwareCore
 
 Mangle = Callable[[bytes], bytes]
+SEQ_TAKE_EVERY = 500      # advances between takes of the core's log: far fewer starts than it holds
 
 
 class SimPort:
@@ -35,6 +36,7 @@ class SimPort:
         self._board_time = 0.0
         self._rx_credit = 0.0
         self.steps = []               # (t, x, y) of every step
+        self._advances = 0
 
     # pyserial-like
     def write(self, data: bytes) -> int:
@@ -107,4 +109,7 @@ class SimPort:
             if self.up:
                 self._out += self.up.receive(end)
             self.now = end
+            self._advances += 1
+            if self._advances % SEQ_TAKE_EVERY == 0:
+                core.seq_log()          # the core logs SEQ_LOG_CAP starts between takes
             return

@@ -190,10 +190,14 @@ uint32_t core_tx_read(uint8_t *out, uint32_t cap)
     return n;
 }
 
-uint32_t core_seq_log(uint16_t *out, uint32_t cap)
+/* Takes the numbers logged since the last call: the host drains the log as it goes, so a job of
+ * any length is logged whole as long as no more than SEQ_LOG_CAP commands start between calls. */
+uint32_t core_seq_log_take(uint16_t *out, uint32_t cap)
 {
     uint32_t n = seq_log_len < cap ? seq_log_len : cap;
     memcpy(out, seq_log, n * sizeof(uint16_t));
+    memmove(seq_log, seq_log + n, (seq_log_len - n) * sizeof(uint16_t));
+    seq_log_len -= n;
     return n;
 }
 

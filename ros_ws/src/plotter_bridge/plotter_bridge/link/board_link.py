@@ -159,7 +159,7 @@ class BoardLink:
         self._credit_q = queue_free
         self._credit_from = base
 
-    def _host_seq(self, wire: int) -> int:
+    def host_seq(self, wire: int) -> int:
         """The host number closest to the window for a 16-bit wire number."""
         ref = self._window[0].seq if self._window else self._next_seq
         d = (wire - ref) % SEQ_MOD
@@ -185,9 +185,12 @@ class BoardLink:
         return len(self._window)
 
     def discard(self) -> None:
-        """Forget everything not yet acknowledged (after an abort)."""
+        """Forget everything not yet acknowledged (after an abort).  The numbers never sent are
+        free again: the board's next number stays within half the 16-bit range of the host's,
+        however many commands the aborted job had queued here."""
         self._window.clear()
         self._send_pos = 0
+        self._next_seq = self.last_sent + 1
 
     def attach(self, port: Port) -> None:
         """Go on over a new port (the old one vanished): nothing is sent until
@@ -204,12 +207,12 @@ class BoardLink:
     def consistent(self, st: Status) -> bool:
         """The board's next expected number is one the link can explain:
         after everything acknowledged, at most one past the last line sent."""
-        nxt = self._host_seq(st.next_seq)
+        nxt = self.host_seq(st.next_seq)
         return self.acked + 1 <= nxt <= self.last_sent + 1
 
     def expected(self, st: Status) -> int:
         """The host number of the board's next expected line."""
-        return self._host_seq(st.next_seq)
+        return self.host_seq(st.next_seq)
 
     def realtime(self, byte: bytes) -> None:
         self.port.write(byte)
@@ -344,7 +347,7 @@ class BoardLink:
                     self._credit_q, self._credit_from = reply.queue_free, probe.covers + 1
                 self._probe = None
                 return
-            seq = self._host_seq(reply.seq)
+            seq = self.host_seq(reply.seq)
             if not self._was_sent(seq):
                 self.stats.garbled_replies += 1     # acknowledges what was never sent
                 return
@@ -353,7 +356,7 @@ class BoardLink:
                 self._credit_q, self._credit_from = reply.queue_free, seq + 1
         elif isinstance(reply, Resend):
             self.stats.resend_requests += 1
-            expected = self._host_seq(reply.expected)
+            expected = self.host_seq(reply.expected)
             if expected > self.last_sent + 1:
                 self.stats.garbled_replies += 1     # asks for what was never sent
                 return
@@ -362,7 +365,7 @@ class BoardLink:
         elif isinstance(reply, Err):
             if reply.seq is None:
                 return
-            seq = self._host_seq(reply.seq)
+            seq = self.host_seq(reply.seq)
             self._acknowledge_through(seq - 1)
             if self._window and self._window[0].seq == seq:
                 cmd = self._window.popleft()
@@ -381,7 +384,7 @@ class BoardLink:
                     return
             self.status = reply
             self.paused = False
-            nxt = self._host_seq(reply.next_seq)
+            nxt = self.host_seq(reply.next_seq)
             self._acknowledge_through(nxt - 1)
             if nxt >= self._credit_from:
                 self._credit_q, self._credit_from = reply.queue_free, nxt

@@ -133,13 +133,12 @@ def displacement(commands: List[str]) -> Optional[tuple]:
     return x, y
 
 
-def started_index(first_wire: int, count: int, st: Status) -> int:
-    """How many of `count` commands numbered from first_wire (16-bit) the
-    board has started, from its status: S is the last one started."""
-    k = (st.seq - first_wire) % SEQ_MOD
-    if k < count:
-        return k + 1
-    return 0 if k >= SEQ_MOD // 2 else count
+def started_count(first: int, count: int, last_started: int) -> int:
+    """How many of `count` commands numbered from `first` the board has started, `last_started`
+    being the host number of its status's S (the last one started).  In host numbers, which do
+    not wrap: a report from before the job (S below `first`) counts none, whatever the job's
+    length."""
+    return min(max(last_started - first + 1, 0), count)
 
 
 class BoardSession:
@@ -336,7 +335,8 @@ class BoardSession:
             self._sync(st)
         job = self.job
         if job is not None and job.commands and job.result is None:
-            job.started = max(job.started, started_index(job.first % SEQ_MOD, len(job.commands), st))
+            job.started = max(job.started, started_count(job.first, len(job.commands),
+                                                         self.link.host_seq(st.seq)))
             if st.state == "Alarm" and job.error is None:
                 self._fail(job, f"board alarm (code {st.alarm})", stop=False)
             if job.pen_change is not None and job.error is None:
@@ -348,7 +348,7 @@ class BoardSession:
 
     def _on_ack(self, cmd: Command) -> None:
         job = self.job
-        if job is not None and job.commands and job.first <= cmd.seq <= job.last:
+        if job is not None and job.result is None and job.commands and job.first <= cmd.seq <= job.last:
             job.acknowledged += 1
             job.status_at_last_ack = self.status_count
         if cmd is self._origin_cmd:

@@ -16,6 +16,7 @@ from typing import Iterable, Iterator
 
 CYCLES_PER_S = 921_600  # STC89C52RC: 11.0592 MHz / 12
 LIB_NAME = "libplotter_core.so"
+SEQ_LOG_CAP = 65536      # hal/host/core_api.c: commands the core logs between two takes
 
 
 def find_library(z_axis: bool = False, follow: bool = False) -> Path:
@@ -72,12 +73,14 @@ class FirmwareCore:
         self.has_follow = hasattr(lib, "core_follow_service")
         lib.core_period.restype = ctypes.c_uint
         lib.core_tx_read.restype = ctypes.c_uint32
-        lib.core_seq_log.restype = ctypes.c_uint32
+        lib.core_seq_log_take.restype = ctypes.c_uint32
         lib.core_run_steps.restype = ctypes.c_int32
         lib.core_rx_free.restype = ctypes.c_uint32
         lib.core_line_top.restype = lib.core_arc_top.restype = ctypes.c_uint
         self._lib = lib
         self._txbuf = ctypes.create_string_buffer(8192)
+        self._seqbuf = (ctypes.c_uint16 * SEQ_LOG_CAP)()
+        self._seq_history: list[int] = []
         self.reset()
 
     def close(self) -> None:
@@ -87,6 +90,7 @@ class FirmwareCore:
     def reset(self) -> None:
         """Power-on reset: clears the queue and position, prints the banner."""
         self._lib.core_reset()
+        self._seq_history.clear()
 
     def receive(self, data: bytes) -> None:
         """Bytes arriving on the UART (real-time bytes act at once)."""
@@ -203,11 +207,23 @@ class FirmwareCore:
     def alarm(self) -> int:
         return int(self._lib.core_alarm())
 
+    def take_seq_log(self) -> list[int]:
+        """Sequence numbers (16-bit, as on the wire) of the commands started since the last
+        take, in the order they started.  The core keeps SEQ_LOG_CAP of them: take them at least
+        that often."""
+        n = self._lib.core_seq_log_take(self._seqbuf, SEQ_LOG_CAP)
+        return list(self._seqbuf[:n])
+
     def seq_log(self) -> list[int]:
-        """Sequence numbers of the queued commands in the order they started."""
-        buf = (ctypes.c_uint16 * 65536)()
-        n = self._lib.core_seq_log(buf, 65536)
-        return list(buf[:n])
+        """Every sequence number started since the power-on reset, in order (tests: the list
+        grows with the job; SimPort takes them as it goes)."""
+        self._seq_history.extend(self.take_seq_log())
+        return list(self._seq_history)
+
+    def started_count(self) -> int:
+        """How many commands started since the power-on reset: len(seq_log()), without the copy."""
+        self._seq_history.extend(self.take_seq_log())
+        return len(self._seq_history)
 
     # --- direct planner access (tests) -------------------------------
     def plan_line(self, dx: int, dy: int, feed: int = 0, exit_rate: int = 0) -> int:

@@ -109,7 +109,6 @@ class MockBoard:
             self._seq_file = open(config.seq_log, "w", buffering=1 << 16)
             self._seq_file.write("seq\n")
             self._seq_file.flush()
-        self._seq_seen = 0
         self._trace_dirty = False
         self._trace_flushed_at = 0.0
         self.rx = PacedLine(config.baud)        # pty -> core, on the wire
@@ -348,7 +347,6 @@ class MockBoard:
             if self._seq_file:
                 self._seq_file.write("reset\n")
             self.core.reset()
-            self._seq_seen = 0
             self.rx.clear()
             self.tx.clear()
             self._tx_out.clear()
@@ -358,11 +356,9 @@ class MockBoard:
         """Append the commands started since the last call to the log file."""
         if not self._seq_file:
             return
-        log = self.core.seq_log()
-        new = log[self._seq_seen:]
+        new = self.core.take_seq_log()
         if new:
             self._seq_file.write("".join(f"{s}\n" for s in new))
-            self._seq_seen = len(log)
         self._seq_file.flush()
 
     def _flush_trace(self, now: float) -> None:
