@@ -177,6 +177,7 @@ LONGEST_FILES = (
     "test_firmware_interpolation.py", "test_gcode_oracle.py", "test_generator_corpus.py",
     "test_firmware_panel.py", "test_real_programs.py", "test_firmware_preemption.py", "test_arcfit.py",
     "test_firmware_follow.py", "test_homing.py", "test_follow_command.py", "test_firmware_plan_cost.py",
+    "test_big_jobs_sim.py",
     # the ros stage's
     "test_web_ui.py", "test_ros_driver.py", "test_plotter_client.py", "test_follow_graph.py",
     "test_plotter_cli.py", "test_plotter_follow.py", "test_fleet.py", "test_svg_layers.py",

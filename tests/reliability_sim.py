@@ -43,9 +43,9 @@ class SimRig:
     """A core, a port into it, and a session on the same simulated clock."""
 
     def __init__(self, faults: Optional[FaultSpec] = None, config: Optional[SessionConfig] = None,
-                 library=None) -> None:
+                 library=None, record_steps: bool = True) -> None:
         self.core = FirmwareCore(library)
-        self.port = SimPort(self.core, faults=faults)
+        self.port = SimPort(self.core, faults=faults, record_steps=record_steps)
         self.log: List[str] = []
         self.session = BoardSession(self._open, config or SessionConfig(), clock=self.port.clock,
                                     log=self.log.append)
@@ -59,10 +59,10 @@ class SimRig:
         self.session.pump()
         self.port.advance(dt)
 
-    def run_until(self, cond: Callable[[], bool], limit: float = 600.0) -> bool:
+    def run_until(self, cond: Callable[[], bool], limit: float = 600.0, dt: float = DT) -> bool:
         end = self.port.now + limit
         while self.port.now < end:
-            self.step()
+            self.step(dt)
             if cond():
                 return True
         return False
@@ -84,7 +84,7 @@ class SimRig:
         for wire in self.core.seq_log():
             d = (wire - host) % SEQ_MOD
             host += d - SEQ_MOD if d >= SEQ_MOD // 2 else d
-            if 0 <= host - job.first < len(job.commands):
+            if 0 <= host - job.first < job.submitted:
                 out.append(host - job.first)
         return out
 
@@ -109,12 +109,12 @@ class Figures:
 
 
 def fault_run(spec: FaultSpec, segments: int = 1000, seed: int = 1, library=None) -> Figures:
-    rig = SimRig(spec, SessionConfig(ack_timeout=0.3), library)
+    rig = SimRig(spec, SessionConfig(ack_timeout=0.3), library, record_steps=False)
     try:
         rig.connect()
         commands, end = random_job(segments, seed)
         job = rig.start(commands)
-        done = rig.run_until(lambda: job.result is not None, limit=3600.0)
+        done = rig.run_until(lambda: job.result is not None, limit=max(3600.0, 0.5 * segments))
         stats = rig.session.link.stats
         injected = rig.port.down.counts.add(rig.port.up.counts)
         return Figures(str(spec), segments, injected, stats.retransmissions, stats.resend_requests,

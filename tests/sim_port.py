@@ -21,8 +21,9 @@ SEQ_TAKE_EVERY = 500      # advances between takes of the core's log: far fewer 
 class SimPort:
     def __init__(self, core: FirmwareCore, baud: int = 115200,
                  to_board: Optional[Mangle] = None, from_board: Optional[Mangle] = None,
-                 faults: Optional[FaultSpec] = None) -> None:
+                 faults: Optional[FaultSpec] = None, record_steps: bool = True) -> None:
         self.core = core
+        self.record_steps = record_steps  # False: a long job's steps are not kept (memory)
         self.faults = faults
         self.down = FaultyChannel(faults, 0) if faults else None   # host -> board
         self.up = FaultyChannel(faults, 1) if faults else None     # board -> host
@@ -95,7 +96,7 @@ class SimPort:
                     if due > end:
                         break
                     self._board_time = due
-                    if core.tick():
+                    if core.tick() and self.record_steps:
                         x, y = core.position
                         self.steps.append((due, x, y))
                     core.poll()

@@ -101,3 +101,38 @@ def test_ctrl_c_while_the_node_is_being_made_exits_0(entity):
     domain = str(new_domain())
     assert node_main.run_node(interrupted_while_made, "interrupted",
                               ["--ros-args", "-r", f"__ns:=/interrupted{domain}"]) == node_main.EXIT_OK
+
+
+def test_ctrl_c_stops_the_spin_without_raising_in_the_main_thread():
+    """A KeyboardInterrupt is raised wherever the main thread is, and once it came between a
+    lock's acquire and the `with` block of the executor's thread pool: the lock stayed taken and
+    the page's node never exited (seen beside CPU-bound processes).  run_node takes Ctrl-C as a
+    flag its spin loop reads, after rclpy's own handler has shut the context down, and gives the
+    handler back when it returns."""
+    import os
+    import signal
+    import threading
+    import rclpy
+    from plotter_bridge.nodes import main as node_main
+    during = []
+    spinning = threading.Event()
+
+    def make():
+        during.append(signal.getsignal(signal.SIGINT))
+        node = rclpy.create_node("flagged")
+        node.create_timer(0.01, spinning.set)
+        return node
+
+    def ctrl_c() -> None:
+        assert spinning.wait(60), "the node never spun"
+        os.kill(os.getpid(), signal.SIGINT)
+    before = signal.getsignal(signal.SIGINT)
+    sender = threading.Thread(target=ctrl_c, daemon=True)
+    sender.start()
+    t0 = time.monotonic()
+    code = node_main.run_node(make, "flagged", ["--ros-args", "-r", f"__ns:=/flagged{new_domain()}"])
+    sender.join(5)
+    assert code == node_main.EXIT_OK and spinning.is_set()
+    assert during and during[0] is not signal.default_int_handler, "Ctrl-C would raise KeyboardInterrupt"
+    assert signal.getsignal(signal.SIGINT) is before
+    assert time.monotonic() - t0 < 60

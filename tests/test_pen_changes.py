@@ -101,7 +101,7 @@ def test_the_job_waits_at_the_change_with_nothing_moving_until_continued(rig):
     assert job.pen_change == 0 and job.result is None
     assert rig.run_until(lambda: rig.session.link.status.state == "Hold", 2), "the board is held for it"
     assert not rig.core.pen_down and rig.core.position == (0, 0), "parked at (0, 0) with the pen up"
-    assert job.started == k + 1 and len(job.commands) == k + 1
+    assert job.started == k + 1 and job.submitted == job.part_end == k + 1
     steps = len(rig.port.steps)
     rig.run_until(lambda: job.result is not None, 5.0)
     assert job.result is None and len(rig.port.steps) == steps, "nothing moves while the pen is changed"

@@ -19,7 +19,7 @@ from pathlib import Path
 
 import pytest
 
-from node_processes import NodeProcess, PlotterGraph, new_domain, params_file, read_trace, wait_until
+from node_processes import STARTUP_S, NodeProcess, PlotterGraph, new_domain, params_file, read_trace, wait_until
 from ros_graph import Probe
 
 pytestmark = pytest.mark.ros
@@ -493,16 +493,16 @@ def test_a_missing_port_is_reported_at_once_and_again_more_slowly(tmp_path):
     from plotter_interfaces.msg import BoardState
     domain = new_domain()
     probe, states, diags = _state_and_diagnostics(domain)
-    t0 = time.monotonic()
     bridge = NodeProcess(MODULES["serial_bridge"], domain, ("-r", "__ns:=/plotter", "--params-file", params_file(),
                                                             "-p", "port:=/nonexistent/ttyUSB9"))
     try:
         def errors():
             return [line for line in bridge.output().splitlines()
                     if line.startswith("[ERROR]") and "/nonexistent/ttyUSB9" in line]
-        wait_until(lambda: errors(), 10, "the first error")
-        assert "No such file or directory" in errors()[0], errors()
-        assert time.monotonic() - t0 < 10
+        # "At once": the first attempt is made as the node comes up (its start-up beside CPU-bound
+        # processes may take longer than the back-off), so its error is the first one logged.
+        wait_until(lambda: errors(), STARTUP_S, "the first error")
+        assert "No such file or directory" in errors()[0] and "(attempt 1;" in errors()[0], errors()
         wait_until(lambda: len(errors()) >= 7, 40, "seven attempts")
         stamps = [float(re.match(r"\[ERROR\] \[(\d+\.\d+)\]", line).group(1)) for line in errors()]
         gaps = [b - a for a, b in zip(stamps, stamps[1:])]

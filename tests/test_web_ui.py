@@ -4,6 +4,7 @@ each node its own process; and its access rules, over plain HTTP."""
 from __future__ import annotations
 
 import json
+import math
 import os
 import re
 import socket
@@ -175,8 +176,11 @@ def test_an_uploaded_program_is_checked_run_and_drawn_live(page):
     assert len(drawn) > 20
     assert all((round(x * STEPS_PER_MM), round(y * STEPS_PER_MM)) in steps for x, y in drawn)
     xs, ys = [p[0] for p in drawn], [p[1] for p in drawn]
-    # Positions come some 25 times a second: the ink reaches the square's sides within a sample's travel.
-    assert (min(xs), max(xs), min(ys), max(ys)) == pytest.approx((30, 70, 30, 70), abs=2.5)
+    # Positions come some 25 times a second, fewer on a loaded machine: the ink reaches the square's
+    # sides within the longest travel between two of its samples (seen: 4.1 mm beside CPU hogs).
+    travel = max(math.dist(a, b) for a, b in zip(drawn, drawn[1:]))
+    assert (min(xs), max(xs), min(ys), max(ys)) == pytest.approx((30, 70, 30, 70), abs=max(2.5, travel + 0.1))
+    assert travel < 20, "the ink is a line of samples, not a few points"
     assert text(page.driver, "x") == "30.000" and text(page.driver, "y") == "30.000"
 
 

@@ -180,6 +180,16 @@ class BoardLink:
         return self._next_seq % SEQ_MOD
 
     @property
+    def next_host_seq(self) -> int:
+        """The host number the next submitted command gets."""
+        return self._next_seq
+
+    @property
+    def unsent(self) -> int:
+        """Commands submitted but not yet put on the wire."""
+        return len(self._window) - self._send_pos
+
+    @property
     def outstanding(self) -> int:
         """Commands submitted but not acknowledged."""
         return len(self._window)

@@ -52,6 +52,7 @@ from .protocol import (PEN_CHANGE_STANDIN, RT_ESTOP, RT_HOLD, RT_RESET, RT_RESUM
                        pen_change_number)
 
 QUEUE_SIZE = 6
+FEED_AHEAD = 32          # a job's commands in the link not yet sent: enough for any burst of credit
 DISCONNECTED, CONNECTING, CONNECTED = "disconnected", "connecting", "connected"
 
 
@@ -79,7 +80,10 @@ class JobResult:
 
 @dataclass
 class Job:
-    commands: List[Command]
+    """A job's commands stay in `source` (the lists given to start_job, kept, not copied) and
+    go to the link a few at a time (FEED_AHEAD unsent at most), numbered first, first + 1...:
+    the bridge's memory and the time to the first step do not grow with a Command per line."""
+    source: Tuple[List[str], List[int]] = ([], [])  # the whole job: texts, and each one's program line
     error: Optional[str] = None         # set: the job failed, the board is being stopped
     interrupted: bool = False           # it ended inside a command (stop, reset)
     acknowledged: int = 0
@@ -88,26 +92,28 @@ class Job:
     disconnected_at: Optional[float] = None
     result: Optional[JobResult] = None
     expected_end: Optional[tuple] = None  # where the pen must be once every command ran
-    source: Tuple[List[str], List[int]] = ([], [])  # the whole job: `commands` are those submitted so far
     pen_change: Optional[int] = None    # the job waits at this pen change (M6 k) for continue_job()
     change_held: bool = False           # ... and the board has been seen held for it
+    first: int = 0                      # the link's number of command 0
+    submitted: int = 0                  # commands handed to the link
+    part_end: int = 0                   # the current part: commands up to and including its pen change
 
     @property
     def total(self) -> int:
         return len(self.source[0])
 
     @property
-    def first(self) -> int:
-        return self.commands[0].seq
-
-    @property
     def last(self) -> int:
-        return self.commands[-1].seq
+        return self.first + self.submitted - 1
+
+    def owns(self, seq: int) -> bool:
+        """The link's number `seq` is one of this job's commands."""
+        return self.submitted > 0 and self.first <= seq <= self.last
 
     def line_of(self, index: int) -> int:
-        if not self.commands:
+        if not self.submitted:
             return 0
-        return int(self.commands[min(max(index, 0), len(self.commands) - 1)].tag or 0)
+        return int(self.source[1][min(max(index, 0), self.submitted - 1)] or 0)
 
 
 @dataclass
@@ -191,6 +197,7 @@ class BoardSession:
                 if self.port is None:
                     return
             try:
+                self._feed()
                 self.link.poll()
                 self._retry_realtime(self.clock())
             except Exception as exc:  # serial.SerialException, OSError: the port is gone
@@ -288,7 +295,7 @@ class BoardSession:
             started = job.started
             self._finish(job, False, f"port lost for more than {self.config.reconnect_timeout:g} s: "
                          f"job aborted after line {job.line_of(started - 2)}; the board may have "
-                         f"finished up to {min(started + QUEUE_SIZE, len(job.commands))} commands",
+                         f"finished up to {min(started + QUEUE_SIZE, job.submitted)} commands",
                          started, max(started - 1, 0))
             self.link.discard()
             self._resync = True
@@ -334,8 +341,8 @@ class BoardSession:
         if self._resync and self._rt is None and (self.job is None or self.job.result is not None):
             self._sync(st)
         job = self.job
-        if job is not None and job.commands and job.result is None:
-            job.started = max(job.started, started_count(job.first, len(job.commands),
+        if job is not None and job.submitted and job.result is None:
+            job.started = max(job.started, started_count(job.first, job.submitted,
                                                          self.link.host_seq(st.seq)))
             if st.state == "Alarm" and job.error is None:
                 self._fail(job, f"board alarm (code {st.alarm})", stop=False)
@@ -348,7 +355,7 @@ class BoardSession:
 
     def _on_ack(self, cmd: Command) -> None:
         job = self.job
-        if job is not None and job.result is None and job.commands and job.first <= cmd.seq <= job.last:
+        if job is not None and job.result is None and job.owns(cmd.seq):
             job.acknowledged += 1
             job.status_at_last_ack = self.status_count
         if cmd is self._origin_cmd:
@@ -365,7 +372,7 @@ class BoardSession:
             return
         self._set_error(text)
         job = self.job
-        if job is not None and job.result is None and job.commands and job.first <= cmd.seq <= job.last:
+        if job is not None and job.result is None and job.owns(cmd.seq):
             self._fail(job, f"{text} (line {cmd.tag})", stop=True)
 
     def _on_banner(self, text: str) -> None:
@@ -419,30 +426,50 @@ class BoardSession:
             elif self._rt is not None:
                 why = "board busy with a stop or reset"
             if why:
-                job = Job([])
+                job = Job()
                 job.result = JobResult(False, why, 0, 0)
                 return job
+            if len(lines) != len(commands):
+                raise ValueError(f"{len(commands)} commands but {len(lines)} line numbers")
             if self._resync:
                 self._sync(st)
-            job = Job([], source=(list(commands), list(lines)))
-            self._submit_part(job)
+            job = Job(source=(commands, lines), first=self.link.next_host_seq)
+            job.part_end = self._part_end(job, 0)
+            self._feed_job(job)
             moves = displacement(commands)
             if moves is not None and st.state == "Idle" and st.queue_free == QUEUE_SIZE:
                 job.expected_end = (st.x + moves[0], st.y + moves[1])
             self.job = job
             return job
 
-    def _submit_part(self, job: Job) -> None:
-        """Hand the link the job's next commands, up to and including its next pen change."""
-        texts, lines = job.source
-        k = len(job.commands)
+    @staticmethod
+    def _part_end(job: Job, k: int) -> int:
+        """The end of the part that begins at command k: just after its next pen change."""
+        texts = job.source[0]
         while k < len(texts):
-            change = pen_change_number(texts[k])
-            job.commands.append(self.link.submit(PEN_CHANGE_STANDIN if change is not None else texts[k],
-                                                 tag=lines[k]))
             k += 1
-            if change is not None:
-                return
+            if texts[k - 1].startswith("M6") and pen_change_number(texts[k - 1]) is not None:
+                break
+        return k
+
+    def _feed(self) -> None:
+        job = self.job
+        if job is not None and job.result is None and job.error is None and job.submitted < job.part_end:
+            self._feed_job(job)
+
+    def _feed_job(self, job: Job) -> None:
+        """Hand the link the job's next commands of the current part, up to FEED_AHEAD unsent."""
+        texts, lines = job.source
+        link = self.link
+        room = FEED_AHEAD - link.unsent
+        while room > 0 and job.submitted < job.part_end:
+            k = job.submitted
+            text = texts[k]
+            if text.startswith("M6") and pen_change_number(text) is not None:
+                text = PEN_CHANGE_STANDIN
+            link.submit(text, tag=lines[k])
+            job.submitted += 1
+            room -= 1
 
     def continue_job(self) -> Tuple[bool, str]:
         """The operator has put in the next pen: the job waiting at a pen change goes on."""
@@ -457,7 +484,8 @@ class BoardSession:
         change = job.pen_change
         job.pen_change, job.change_held = None, False
         job.status_at_last_ack = self.status_count     # done again only after a status that follows
-        self._submit_part(job)
+        job.part_end = self._part_end(job, job.submitted)
+        self._feed_job(job)
         self.log(f"pen change {change + 1}: {why}, the job goes on")
         self._changed()
         return f"pen change {change + 1} done: the job goes on"
@@ -504,9 +532,11 @@ class BoardSession:
             return
         if (link.outstanding == 0 and self.status_count > job.status_at_last_ack
                 and st.state == "Idle" and st.queue_free == QUEUE_SIZE):
-            if len(job.commands) < job.total:
+            if job.submitted < job.part_end:
+                return                      # the pump feeds the rest of the part
+            if job.submitted < job.total:
                 if job.pen_change is None:
-                    job.pen_change = pen_change_number(job.source[0][len(job.commands) - 1])
+                    job.pen_change = pen_change_number(job.source[0][job.submitted - 1])
                     self._request_rt(RT_HOLD, _held)
                     self.log(f"pen change {job.pen_change + 1}: the job waits, pen up and the board held, for "
                              f"the next pen (resume, or the board's pause / resume key, goes on)")

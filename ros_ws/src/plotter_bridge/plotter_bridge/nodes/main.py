@@ -4,6 +4,8 @@ Ctrl-C, exit code 1 with one line on the log for a bad parameter or bad
 command-line arguments."""
 from __future__ import annotations
 
+import signal
+import threading
 from typing import Callable, List, Optional
 
 import rclpy
@@ -29,6 +31,30 @@ def run_node(make: Callable[[], Node], name: str, args: Optional[List[str]] = No
     """Spin the node `make()` builds on a multi-threaded executor; return the
     exit code.  A node refuses a bad parameter by raising ValueError (params.
     BadParameter), or rclpy's ParameterException, from its constructor."""
+    stop = threading.Event()
+    previous = _take_sigint(stop)
+    try:
+        return _run(make, name, args, threads, stop)
+    finally:
+        if previous is not None:
+            signal.signal(signal.SIGINT, previous)
+
+
+def _take_sigint(stop: threading.Event):
+    """Ctrl-C sets `stop` instead of raising KeyboardInterrupt; the handler this replaced.
+
+    A KeyboardInterrupt is raised wherever the main thread happens to be, and once it came
+    between a lock's acquire and the `with` block of the executor's thread pool (its idle
+    semaphore): the lock stayed taken, every worker blocked on it, and the node never exited.
+    Set before rclpy.init, which keeps this handler and calls it after its own (the context
+    shut down, the waits woken); the spin loop sees `stop` within SPIN_STEP_S."""
+    if threading.current_thread() is not threading.main_thread():
+        return None
+    return signal.signal(signal.SIGINT, lambda _signum, _frame: stop.set())
+
+
+def _run(make: Callable[[], Node], name: str, args: Optional[List[str]], threads: int,
+         stop: threading.Event) -> int:
     try:
         rclpy.init(args=args)
     except Exception as exc:  # rcl's own parse of --ros-args
@@ -44,16 +70,14 @@ def run_node(make: Callable[[], Node], name: str, args: Optional[List[str]] = No
             executor.add_node(node)
             # In steps, not one spin(): rclpy wakes a waiting spin() on Ctrl-C with a guard condition,
             # and a node beside CPU-bound processes once sat 15 s in that wait after SIGINT.  Coming
-            # back to Python every SPIN_STEP_S lets the KeyboardInterrupt Python has pending be raised
-            # here.
-            while spin_step(executor, SPIN_STEP_S):
+            # back to Python every SPIN_STEP_S sees `stop`.
+            while not stop.is_set() and spin_step(executor, SPIN_STEP_S):
                 pass
         except (ValueError, ParameterException, RCLError) as exc:
             if not rclpy.ok():
                 # Ctrl-C while the node was being made: rclpy's handler shut the context down under
                 # it, and making the next entity failed for that (ValueError from an action server,
-                # RCLError from the rest), not for a parameter.  Python's KeyboardInterrupt of the
-                # same Ctrl-C may still come, in here: the outer handler takes it.
+                # RCLError from the rest), not for a parameter.
                 return EXIT_OK
             if isinstance(exc, RCLError):
                 raise

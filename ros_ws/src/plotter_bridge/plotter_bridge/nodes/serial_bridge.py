@@ -315,7 +315,7 @@ class SerialBridge(Node):
         s.next_seq = self.session.link.next_seq if self.session.link else 0
         running = self._running
         job = running.job if running is not None else None
-        if job is not None and job.commands:
+        if job is not None and job.submitted:
             s.current_line = job.line_of(job.started - 1)
             s.lines_done = job.line_of(job.started - 2) if job.started > 1 else 0
             change = job.pen_change

@@ -113,9 +113,9 @@ class BridgeTelemetry:
                 if len(self._samples) > MAX_PATH_POSES:
                     self._samples = thin(self._samples)
                 self._changed = True
-            if job is not None and job is not self._job and getattr(job, "commands", None):
+            if job is not None and job is not self._job and getattr(job, "part_end", 0):
                 self._job = job
-                self._planned = ([c.text for c in job.commands], (st.x, st.y), bool(st.pen_down),
+                self._planned = (job.source[0][:job.part_end], (st.x, st.y), bool(st.pen_down),
                                  getattr(job, "expected_end", None))
 
     def publish_motion(self) -> None:
