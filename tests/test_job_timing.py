@@ -62,6 +62,26 @@ def test_progress_follows_length_not_commands():
     assert JobProgress([], []).update(0, 0.0) == (1.0, 0.0)
 
 
+def test_progress_and_time_left_of_a_300k_command_job_past_every_power_of_two():
+    """The share and the time left come from sums kept per command, exact at any index: past
+    2^15, 2^16 and 2^17 commands of a 300,000-command job as at its start."""
+    n = 300_000
+    lengths = [0.5 + (k % 7) * 0.25 for k in range(n)]
+    seconds = [0.01 + (k % 5) * 0.002 for k in range(n)]
+    job = JobProgress(lengths, seconds)
+    total_length, total_seconds = math.fsum(lengths), math.fsum(seconds)
+    assert job.total_length == pytest.approx(total_length) and job.total_seconds == pytest.approx(total_seconds)
+    last = (0.0, job.total_seconds)
+    for started in (0, 1, 2 ** 15, 2 ** 15 + 1, 2 ** 16 - 1, 2 ** 16, 2 ** 16 + 1, 2 ** 17, 2 ** 17 + 1, n - 1, n):
+        share, left = job.update(started, float(started))       # each seen as it starts
+        running = started - 1
+        assert share == pytest.approx(math.fsum(lengths[:max(running, 0)]) / total_length, abs=1e-9)
+        assert left == pytest.approx(total_seconds - math.fsum(seconds[:max(running, 0)]), abs=1e-6)
+        assert share >= last[0] and left <= last[1] + 1e-9
+        last = (share, left)
+    assert job.update(n, float(n) + 1.0) == (pytest.approx(1.0), pytest.approx(0.0))
+
+
 def _fb(progress, left, ahead=0):
     return SimpleNamespace(progress=progress, seconds_left=left, current_line=3, total_lines=9, x_mm=1.5,
                            y_mm=2.25, jobs_ahead=ahead)
