@@ -127,3 +127,40 @@ def test_an_entity_destroyed_while_the_wait_set_is_built_does_not_stop_the_spin(
         executor.shutdown()
         node.destroy_node()
         rclpy.try_shutdown(context=context)
+
+
+def test_an_action_client_destroyed_while_the_wait_set_is_built_does_not_stop_the_spin(monkeypatch):
+    """The same for the page's action clients (seen in a fresh-clone run: RCLError "Failed to add
+    'rcl_action_client_t' to wait set: action client pointer is invalid")."""
+    import rclpy
+    from rclpy.action import ActionClient
+    from rclpy.context import Context
+    from rclpy.executors import MultiThreadedExecutor
+    from plotter_interfaces.action import DrawShape
+    from plotter_bridge.nodes.spinning import spin_step
+    context = Context()
+    rclpy.init(context=context, domain_id=new_domain())
+    node = rclpy.create_node("swapping_clients", context=context)
+    executor = MultiThreadedExecutor(num_threads=2, context=context)
+    executor.add_node(node)
+    client = ActionClient(node, DrawShape, "draw")
+    enter = ActionClient.__enter__
+    destroyed = []
+
+    def destroyed_after_the_snapshot(self):
+        if not destroyed:
+            destroyed.append(True)
+            self.destroy()
+        return enter(self)
+    monkeypatch.setattr(ActionClient, "__enter__", destroyed_after_the_snapshot)
+    try:
+        assert spin_step(executor, 0.01)
+        assert destroyed == [True]
+        monkeypatch.undo()
+        assert spin_step(executor, 0.01)        # the next wait set is built without it
+        assert client not in node.waitables
+    finally:
+        monkeypatch.undo()
+        executor.shutdown()
+        node.destroy_node()
+        rclpy.try_shutdown(context=context)
