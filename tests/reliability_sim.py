@@ -13,7 +13,7 @@ from typing import Callable, List, Optional, Tuple
 from plotter_bridge.link.board_session import BoardSession, Job, SessionConfig
 from plotter_bridge.sim.faults import FaultCounts, FaultSpec
 from plotter_bridge.sim.firmware_core import FirmwareCore
-from plotter_bridge.link.protocol import SEQ_MOD
+from plotter_bridge.link.protocol import nearest_seq
 from sim_port import SimPort
 
 DT = 0.002
@@ -82,8 +82,7 @@ class SimRig:
         past 2^16 commands is read whole."""
         host, out = job.first - 1, []
         for wire in self.core.seq_log():
-            d = (wire - host) % SEQ_MOD
-            host += d - SEQ_MOD if d >= SEQ_MOD // 2 else d
+            host = nearest_seq(host, wire)
             if 0 <= host - job.first < job.submitted:
                 out.append(host - job.first)
         return out

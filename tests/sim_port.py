@@ -112,5 +112,5 @@ class SimPort:
             self.now = end
             self._advances += 1
             if self._advances % SEQ_TAKE_EVERY == 0:
-                core.seq_log()          # the core logs SEQ_LOG_CAP starts between takes
+                core.collect_seq_log()  # the core logs SEQ_LOG_CAP starts between takes
             return

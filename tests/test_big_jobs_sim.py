@@ -105,6 +105,22 @@ def assert_link_usable(rig: SimRig, mismatches: int = 0) -> None:
     assert rig.core.position == (x + 40, y - 40)
 
 
+def started(rig: SimRig, count: int, **job) -> Tuple[object, Watch]:
+    """A job of `count` commands (long_job) under way: 300 of them started, the progress watched."""
+    commands, _ = long_job(count, **job)
+    running = rig.start(commands)
+    watch = Watch(rig)
+    run_to(rig, running, 300, watch)
+    return running, watch
+
+
+def canceled_cleanly(rig: SimRig, job, mismatches: int = 0) -> None:
+    """Canceled where it is: what ran, ran once and in order, and the link goes on."""
+    cancel(rig, job)
+    assert_once_in_order(rig, job)
+    assert_link_usable(rig, mismatches)
+
+
 @pytest.fixture
 def rig():
     r = SimRig(library=host_library())
@@ -152,10 +168,7 @@ def test_progress_counts_from_the_first_command_at_any_length(rig, count):
 
 @pytest.mark.parametrize("count", LENGTHS)
 def test_hold_and_resume_at_any_length(rig, count):
-    commands, _ = long_job(count)
-    job = rig.start(commands)
-    watch = Watch(rig)
-    run_to(rig, job, 300, watch)
+    job, watch = started(rig, count)
     rig.session.realtime("hold", timeout=0)
     assert rig.run_until(lambda: rig.session.link.status.state == "Hold", 5)
     rig.run_until(lambda: False, 0.5)                  # the pen slows to a stop
@@ -165,16 +178,12 @@ def test_hold_and_resume_at_any_length(rig, count):
     rig.session.realtime("resume", timeout=0)
     run_to(rig, job, n + 300, watch)
     assert rig.session.link.stats.mismatches == 0
-    cancel(rig, job)
-    assert_once_in_order(rig, job)
-    assert_link_usable(rig)
+    canceled_cleanly(rig, job)
 
 
 @pytest.mark.parametrize("count", LENGTHS)
 def test_estop_at_any_length(rig, count):
-    commands, _ = long_job(count)
-    job = rig.start(commands)
-    run_to(rig, job, 300, Watch(rig))
+    job, _ = started(rig, count)
     rig.session.realtime("estop", timeout=0)
     assert rig.run_until(lambda: job.result is not None, 5)
     assert not job.result.success and "emergency stop" in job.result.message
@@ -187,25 +196,18 @@ def test_estop_at_any_length(rig, count):
 
 @pytest.mark.parametrize("count", LENGTHS)
 def test_port_away_and_back_goes_on_at_any_length(rig, count):
-    commands, _ = long_job(count)
-    job = rig.start(commands)
-    watch = Watch(rig)
-    run_to(rig, job, 300, watch)
+    job, watch = started(rig, count)
     rig.port.unplug()
     rig.run_until(lambda: False, 1.5)
     rig.port.replug()
     run_to(rig, job, watch.started() + 500, watch)
     assert rig.session.link.stats.reconnects == 1 and rig.session.link.stats.mismatches == 0
-    cancel(rig, job)
-    assert_once_in_order(rig, job)
-    assert_link_usable(rig)
+    canceled_cleanly(rig, job)
 
 
 @pytest.mark.parametrize("count", LENGTHS)
 def test_a_real_board_reset_is_told_as_one_at_any_length(rig, count):
-    commands, _ = long_job(count)
-    job = rig.start(commands)
-    run_to(rig, job, 300, Watch(rig))
+    job, _ = started(rig, count)
     rig.core.reset()                                   # power blip: banner, position 0, queue empty
     assert rig.run_until(lambda: job.result is not None, 5)
     assert not job.result.success and "board reset (start-up banner)" in job.result.message
@@ -217,10 +219,7 @@ def test_a_damaged_status_report_that_passes_its_checksum_is_not_taken_for_a_boa
     (scripts/reliability_figures.py: a job aborted as 'board reset (it expects line 5614, the
     bridge had sent up to 50613)').  A report whose N the link cannot explain is believed only
     when the next one says the same; a real reset does (tests/test_reliability_sim.py)."""
-    commands, _ = long_job(100_000)
-    job = rig.start(commands)
-    watch = Watch(rig)
-    run_to(rig, job, 300, watch)
+    job, watch = started(rig, 100_000)
     forged = []
 
     def damage_one_status(data: bytes) -> bytes:
@@ -235,25 +234,18 @@ def test_a_damaged_status_report_that_passes_its_checksum_is_not_taken_for_a_boa
     run_to(rig, job, 800, watch)
     assert forged and rig.session.link.stats.mismatches == 1
     assert rig.session.board_resets == 0 and rig.session.position_known
-    cancel(rig, job)
-    assert_once_in_order(rig, job)
-    assert_link_usable(rig, mismatches=1)
+    canceled_cleanly(rig, job, mismatches=1)
 
 
 @pytest.mark.parametrize("count", LENGTHS)
 def test_a_pen_change_waits_and_goes_on_at_any_length(rig, count):
-    commands, _ = long_job(count, pen_changes=(400,))
-    job = rig.start(commands)
-    watch = Watch(rig)
-    run_to(rig, job, 300, watch)
+    job, watch = started(rig, count, pen_changes=(400,))
     assert rig.run_until(lambda: job.pen_change is not None and rig.session.link.status.state == "Hold", 30)
     assert job.pen_change == 0 and job.submitted == job.part_end == 401
     ok, said = rig.session.continue_job()
     assert ok, said
     run_to(rig, job, 900, watch)
-    cancel(rig, job)
-    assert_once_in_order(rig, job)
-    assert_link_usable(rig)
+    canceled_cleanly(rig, job)
 
 
 @pytest.mark.parametrize("count", LENGTHS)
@@ -276,9 +268,7 @@ def test_resume_from_the_journal_at_any_length(rig, count):
     assert end_of(rest[:head], (st.x, st.y)) == state_before(record, completed)[0]
     resumed = rig.session.start_job(rest, lines)
     run_to(rig, resumed, 600, Watch(rig))
-    cancel(rig, resumed)
-    assert_once_in_order(rig, resumed)
-    assert_link_usable(rig)
+    canceled_cleanly(rig, resumed)
 
 
 def test_a_job_past_two_to_the_seventeen_commands_every_operation_on_the_way(rig):

@@ -52,7 +52,7 @@ from dataclasses import dataclass, field
 from itertools import islice
 from typing import Callable, Deque, Optional, Protocol
 
-from .protocol import (RT_STATUS, SEQ_MOD, Banner, Err, Message, Ok, Resend, Status,
+from .protocol import (RT_STATUS, SEQ_MOD, Banner, Err, Message, Ok, Resend, Status, nearest_seq,
                        machine_line, parse_reply)
 
 
@@ -161,11 +161,7 @@ class BoardLink:
 
     def host_seq(self, wire: int) -> int:
         """The host number closest to the window for a 16-bit wire number."""
-        ref = self._window[0].seq if self._window else self._next_seq
-        d = (wire - ref) % SEQ_MOD
-        if d >= SEQ_MOD // 2:
-            d -= SEQ_MOD
-        return ref + d
+        return nearest_seq(self._window[0].seq if self._window else self._next_seq, wire)
 
     # --- queueing ----------------------------------------------------------
     def submit(self, text: str, tag: object = None) -> Command:

@@ -214,15 +214,20 @@ class FirmwareCore:
         n = self._lib.core_seq_log_take(self._seqbuf, SEQ_LOG_CAP)
         return list(self._seqbuf[:n])
 
+    def collect_seq_log(self) -> None:
+        """Move what the core logged into seq_log()'s history (a caller of take_seq_log keeps
+        its own instead)."""
+        self._seq_history.extend(self.take_seq_log())
+
     def seq_log(self) -> list[int]:
         """Every sequence number started since the power-on reset, in order (tests: the list
-        grows with the job; SimPort takes them as it goes)."""
-        self._seq_history.extend(self.take_seq_log())
+        grows with the job; SimPort collects them as it goes)."""
+        self.collect_seq_log()
         return list(self._seq_history)
 
     def started_count(self) -> int:
         """How many commands started since the power-on reset: len(seq_log()), without the copy."""
-        self._seq_history.extend(self.take_seq_log())
+        self.collect_seq_log()
         return len(self._seq_history)
 
     # --- direct planner access (tests) -------------------------------
