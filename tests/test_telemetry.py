@@ -147,7 +147,11 @@ def test_path_grows_and_diagnostics_follow_the_link(tmp_path):
         assert len(set(sizes)) >= 3 and sizes == sorted(sizes), sizes       # it grew while the board moved
         assert math.dist((last_path[-1][0] * 1000, last_path[-1][1] * 1000), end) < 0.05
         assert running, "no diagnostics while the board ran"
-        assert all(d[link_name][0] == OK for d in running)
+        # A busy machine may hold the mock board's reports past STALE_AFTER: that is a WARN,
+        # as it should be; the port is never reported gone while the board runs.
+        levels = [(d[link_name][0], d[link_name][1]) for d in running]
+        assert any(lv == OK for lv, _ in levels), levels
+        assert all(lv in (OK, WARN) for lv, _ in levels), levels
         assert max(float(d[board_name][2]["step rate (steps/s)"]) for d in running) > 500
         # The program's 120 lines went over the link: the counter says so once the job is done
         # (the last report while running may come early in it on a busy machine).

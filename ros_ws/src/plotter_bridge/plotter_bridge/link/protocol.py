@@ -16,6 +16,8 @@ def nearest_seq(ref: int, wire: int) -> int:
     """The unwrapped number nearest `ref` whose 16 bits on the wire are `wire`."""
     d = (wire - ref) % SEQ_MOD
     return ref + (d - SEQ_MOD if d >= SEQ_MOD // 2 else d)
+
+
 # The default image's UART (firmware/hal/mcs51/main.c, Timer 1): every host default is this
 # rate, so that a board flashed with `make flash` answers a bridge started without options.
 DEFAULT_BAUD = 9600
