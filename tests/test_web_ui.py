@@ -454,8 +454,13 @@ def test_the_page_picks_one_of_several_plotters_in_the_domain(page, tmp_path):
         wait_until(lambda: text(page.driver, "x") == "10.000", 60, "the second plotter's pen at X10")
         assert read_trace(second.trace)[-1][1:] == (10 * STEPS_PER_MM, 0), "the second board moved"
         assert len(read_trace(page.trace)) == first_steps, "the first did not"
+        # the pen reaches X10 a moment before the jog's result: a pick before it is refused as busy
+        wait_until(lambda: text(page.driver, "message") == "jog: done", 30, "the jog's end")
         Select(picker).select_by_visible_text("/plotter")
         wait_until(lambda: "now driving the plotter in /plotter" in text(page.driver, "message"), 15, "back")
+        # back on the first: its own pen, not the second's
+        wait_until(lambda: text(page.driver, "x") == "0.000" and text(page.driver, "state") == "IDLE", 15,
+                   "the first plotter's pen at X0")
     finally:
         codes = second.close()
     assert all(c == 0 for c in codes), codes

@@ -28,7 +28,8 @@ import ipaddress
 import sys
 import threading
 import time
-from typing import List, Optional
+from dataclasses import dataclass, field
+from typing import Dict, List, Optional
 
 from rclpy.callback_groups import ReentrantCallbackGroup
 from rclpy.node import Node
@@ -82,6 +83,21 @@ def check_web(values) -> Optional[str]:
     return check_work_area(values)
 
 
+@dataclass
+class _Plotter:
+    """One plotter the page has driven: its entities and the newest of what it said."""
+    ns: str
+    subs: list = field(default_factory=list)
+    run_client: object = None
+    draw_client: object = None
+    follow_client: object = None
+    triggers: dict = field(default_factory=dict)
+    state: object = None
+    last_name: str = ""
+    ink: List[float] = field(default_factory=list)
+    planned: List[float] = field(default_factory=list)
+
+
 class WebUi(Node):
     def __init__(self, *, namespace: str = DEFAULT_NAMESPACE, **kwargs) -> None:
         super().__init__("web_ui", namespace=namespace, **kwargs)
@@ -91,20 +107,15 @@ class WebUi(Node):
         self._RunProgram, self._DrawShape, self._FollowLine = RunProgram, DrawShape, FollowLine
         self._disconnected, self._idle = BoardState.DISCONNECTED, BoardState.IDLE
         group = ReentrantCallbackGroup()
-        self._state = None
         self._state_sent = 0.0
-        self._last_name = ""
-        self._ink: List[float] = []
-        self._planned: List[float] = []
         self._job: Optional[dict] = None          # the page's job: name, status, progress...
         self._handle = None
         self._lock = threading.Lock()
         self._group = group
-        self._target = ""                         # the plotter's namespace the page drives
-        self._target_subs: list = []
-        self._target_actions: list = []
-        self._target_services: list = []
-        self._connect(self.get_namespace())
+        # Every plotter the page has driven keeps its subscriptions and clients until the node
+        # ends: entities destroyed from the web thread race the executor's wait set.
+        self._known: Dict[str, _Plotter] = {}
+        self._cur = self._connect(self.get_namespace())
         self._plotters: List[str] = []
         self.create_timer(PLOTTERS_PERIOD, self._look_for_plotters, callback_group=group)
         self._journal = Journal(str(self.params["journal_dir"]) or default_journal_dir())
@@ -123,31 +134,39 @@ class WebUi(Node):
         self.get_logger().info(f"plotter page on {where} for the plotter in {self.get_namespace()}")
 
     # --- which plotter ------------------------------------------------------------------------
-    def _connect(self, namespace: str) -> None:
-        """Drive the plotter in `namespace`: its topics, actions and services (absolute names)."""
+    def _connect(self, namespace: str) -> "_Plotter":
+        """The plotter in `namespace`: its topics, actions and services (absolute names)."""
         from nav_msgs.msg import Path
         from plotter_interfaces.msg import BoardState
         from visualization_msgs.msg import Marker
-        for sub in self._target_subs:
-            self.destroy_subscription(sub)
-        for client in self._target_actions:
-            client.destroy()                      # an action client takes itself off the node
-        for client in self._target_services:
-            self.destroy_client(client)
         ns, group = namespace.rstrip("/"), self._group
-        self._target = ns or "/"
-        self._state, self._ink, self._planned, self._last_name = None, [], [], ""
-        self._target_subs = [
-            self.create_subscription(BoardState, f"{ns}/state", self._on_state, latched(), callback_group=group),
-            self.create_subscription(Marker, f"{ns}/ink", self._on_ink, latched(), callback_group=group),
-            self.create_subscription(Path, f"{ns}/planned_path", self._on_planned, latched(), callback_group=group)]
-        self._run_client = ActionClient(self, self._RunProgram, f"{ns}/run_program", callback_group=group)
-        self._draw_client = ActionClient(self, self._DrawShape, f"{ns}/draw", callback_group=group)
-        self._follow_client = ActionClient(self, self._FollowLine, f"{ns}/follow_line", callback_group=group)
-        self._triggers = {name: self.create_client(Trigger, f"{ns}/{srv}", callback_group=group)
-                          for name, srv in SERVICES.items()}
-        self._target_actions = [self._run_client, self._draw_client, self._follow_client]
-        self._target_services = list(self._triggers.values())
+        key = ns or "/"
+        known = self._known.get(key)
+        if known is not None:
+            return known
+        p = _Plotter(key)
+        p.subs = [
+            self.create_subscription(BoardState, f"{ns}/state", lambda m: self._on_state(p, m), latched(),
+                                     callback_group=group),
+            self.create_subscription(Marker, f"{ns}/ink", lambda m: self._on_ink(p, m), latched(),
+                                     callback_group=group),
+            self.create_subscription(Path, f"{ns}/planned_path", lambda m: self._on_planned(p, m), latched(),
+                                     callback_group=group)]
+        p.run_client = ActionClient(self, self._RunProgram, f"{ns}/run_program", callback_group=group)
+        p.draw_client = ActionClient(self, self._DrawShape, f"{ns}/draw", callback_group=group)
+        p.follow_client = ActionClient(self, self._FollowLine, f"{ns}/follow_line", callback_group=group)
+        p.triggers = {name: self.create_client(Trigger, f"{ns}/{srv}", callback_group=group)
+                      for name, srv in SERVICES.items()}
+        self._known[key] = p
+        return p
+
+    @property
+    def _target(self) -> str:
+        return self._cur.ns
+
+    @property
+    def _state(self):
+        return self._cur.state
 
     def plotters(self) -> List[str]:
         """The namespaces in which a serial bridge runs: the plotters of this ROS domain."""
@@ -174,7 +193,7 @@ class WebUi(Node):
         if job is not None and job["status"] in ("sending", "running"):
             raise Refused(f"busy: {job['name']!r} is running on {self._target}: wait for it or cancel it")
         with self._lock:
-            self._connect(namespace)
+            self._cur = self._connect(namespace)
             self._job, self._handle = None, None
         for event in self.snapshot():
             self.web.publish(event)
@@ -200,29 +219,34 @@ class WebUi(Node):
                 # At a pen change: the pen the job waits for.
                 "next_pen": s.next_pen, "next_pen_colour": s.next_pen_colour}
 
-    def _on_state(self, msg) -> None:
-        self._state = msg
+    def _on_state(self, plotter: "_Plotter", msg) -> None:
+        plotter.state = msg
+        changed, plotter.last_name = plotter.last_name != msg.state_name, msg.state_name
+        if plotter is not self._cur:
+            return
         now = time.monotonic()
-        changed, self._last_name = self._last_name != msg.state_name, msg.state_name
         if changed or now - self._state_sent >= STATE_PERIOD:
             self._state_sent = now
             self.web.publish(self._state_event())
 
-    def _on_ink(self, msg) -> None:
+    def _on_ink(self, plotter: "_Plotter", msg) -> None:
         # A line list in metres; the page draws in millimetres.
-        self._ink = [round(v * 1000.0, 3) for p in msg.points for v in (p.x, p.y)]
-        self.web.publish({"type": "ink", "points": self._ink})
+        plotter.ink = [round(v * 1000.0, 3) for p in msg.points for v in (p.x, p.y)]
+        if plotter is self._cur:
+            self.web.publish({"type": "ink", "points": plotter.ink})
 
-    def _on_planned(self, msg) -> None:
-        self._planned = [round(v * 1000.0, 3) for p in msg.poses for v in (p.pose.position.x, p.pose.position.y)]
-        self.web.publish({"type": "planned", "points": self._planned})
+    def _on_planned(self, plotter: "_Plotter", msg) -> None:
+        plotter.planned = [round(v * 1000.0, 3) for p in msg.poses
+                           for v in (p.pose.position.x, p.pose.position.y)]
+        if plotter is self._cur:
+            self.web.publish({"type": "planned", "points": plotter.planned})
 
     def snapshot(self) -> list:
         a = self.area()
         events = [{"type": "config", "area": [a.x_min, a.x_max, a.y_min, a.y_max], "namespace": self._target,
                    "jog_steps": [0.1, 1.0, 10.0]}, self._plotters_event(),
-                  self._state_event(), {"type": "ink", "points": self._ink},
-                  {"type": "planned", "points": self._planned}]
+                  self._state_event(), {"type": "ink", "points": self._cur.ink},
+                  {"type": "planned", "points": self._cur.planned}]
         if self._job is not None:
             events.append({"type": "job", **self._job})
         events.append(self.jobs_event())
@@ -262,7 +286,7 @@ class WebUi(Node):
 
     async def run(self, job: Checked) -> str:
         self._ready_for_a_job()
-        return await self._send(self._run_client, self._RunProgram.Goal(program=job.program, name=job.name),
+        return await self._send(self._cur.run_client, self._RunProgram.Goal(program=job.program, name=job.name),
                                 job.name, "run_program", "gcode_streamer")
 
     async def resume(self, job_id: str) -> str:
@@ -276,7 +300,7 @@ class WebUi(Node):
                           f"{': ' + job['note'] if job['note'] else ''})")
         self._ready_for_a_job()
         name = f"{job['name']} (resumed)"
-        return await self._send(self._run_client, self._RunProgram.Goal(name=name, resume=job_id),
+        return await self._send(self._cur.run_client, self._RunProgram.Goal(name=name, resume=job_id),
                                 name, "run_program", "gcode_streamer")
 
     async def jog(self, dx: float, dy: float) -> str:
@@ -288,7 +312,7 @@ class WebUi(Node):
         checked = check_program(program, "jog", self.area(), self._pen())
         if not checked.ok:
             raise Refused(f"jog: {checked.errors[0]['message']}", 400)
-        return await self._send(self._run_client, self._RunProgram.Goal(program=program, name="jog"),
+        return await self._send(self._cur.run_client, self._RunProgram.Goal(program=program, name="jog"),
                                 "jog", "run_program", "gcode_streamer")
 
     async def draw(self, fields: dict) -> str:
@@ -303,7 +327,7 @@ class WebUi(Node):
             raise Refused(f"shape: {exc}", 400) from None
         self._ready_for_a_job()
         name = (goal.shape or "shape") + (" reversed" if goal.reverse else "")
-        return await self._send(self._draw_client, self._DrawShape.Goal(shape=goal), name, "draw", "shape_server")
+        return await self._send(self._cur.draw_client, self._DrawShape.Goal(shape=goal), name, "draw", "shape_server")
 
     async def follow(self, fields: dict) -> str:
         """A follow_line goal; gcode_streamer refuses a bad one with every reason."""
@@ -314,7 +338,7 @@ class WebUi(Node):
         self._ready_for_a_job()
         goal = self._FollowLine.Goal(from_here=fields["from_here"], gate_mm=0.0,
                                      **{k: v for k, v in fields.items() if k != "from_here"})
-        return await self._send(self._follow_client, goal, "follow", "follow_line", "gcode_streamer",
+        return await self._send(self._cur.follow_client, goal, "follow", "follow_line", "gcode_streamer",
                                 self._on_follow_feedback)
 
     async def button(self, name: str) -> str:
@@ -324,7 +348,7 @@ class WebUi(Node):
                 raise Refused("nothing of this page's is running")
             await _wrap(handle.cancel_goal_async())
             return "cancel requested"
-        client = self._triggers[name]
+        client = self._cur.triggers[name]
         if not client.service_is_ready():
             raise Refused(f"{self._target}/{SERVICES[name]} does not answer: is serial_bridge running?")
         response = await asyncio.wait_for(_wrap(client.call_async(Trigger.Request())),
