@@ -19,7 +19,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, replace
-from typing import Callable, List, Optional, Sequence, Tuple
+from typing import Callable, Iterable, Iterator, List, Optional, Sequence, Tuple
 
 import numpy as np
 
@@ -173,13 +173,16 @@ def _longest_line(points: Sequence[Point], i: int, config: FitConfig) -> int:
 Piece = Tuple[int, int, Optional[Point], Optional[bool]]   # first, last point index; centre and cw of an arc
 
 
-def fit_polyline(points: Sequence[Point], config: FitConfig = FitConfig()) -> List[Piece]:
+def fit_polyline(points: Sequence[Point], config: FitConfig = FitConfig(), final: bool = True) -> List[Piece]:
     """A polyline as pieces: arcs (first, last, centre, cw) over each run of its points that one arc
     holds within the tolerance, lines (first, last, None, None) over each run that one line holds,
-    whichever is the longer from where the last piece ended."""
+    whichever is the longer from where the last piece ended.
+
+    Not `final`: the points are the start of a longer polyline, and only the pieces that its
+    further points cannot change are given (those from a point with max_moves more after it)."""
     out: List[Piece] = []
     i = 0
-    while i < len(points) - 1:
+    while i < len(points) - 1 and (final or i + config.max_moves < len(points) - 1):
         arc = _longest_fit(points, i, config) if len(points) - 1 - i >= config.min_moves else None
         line = _longest_line(points, i, config)
         if arc is not None and arc[0] > line:
@@ -191,11 +194,14 @@ def fit_polyline(points: Sequence[Point], config: FitConfig = FitConfig()) -> Li
     return out
 
 
-def _fit_chain(chain: List[Move], config: FitConfig) -> List[Move]:
-    """One chain of joined drawn lines of one feed, with every run that fits as an arc."""
+def _fit_chain(chain: List[Move], config: FitConfig, final: bool = True) -> Tuple[List[Move], int]:
+    """One chain of joined drawn lines of one feed, with every run that fits as an arc, and how many
+    of the chain's moves that covers (all if `final`; see fit_polyline)."""
     points = [(chain[0].sx, chain[0].sy)] + [(m.x, m.y) for m in chain]
     out: List[Move] = []
-    for first, last, centre, cw in fit_polyline(points, config):
+    covered = 0
+    for first, last, centre, cw in fit_polyline(points, config, final):
+        covered = last
         start = points[first]
         if centre is None:
             out.append(chain[first] if last == first + 1 else
@@ -209,28 +215,40 @@ def _fit_chain(chain: List[Move], config: FitConfig) -> List[Move]:
             out.append(arc)
         else:
             out.extend(chain[first:last])
-    return out
+    return out, covered
 
 
 def fit_arcs(items: Sequence[Item], config: FitConfig = FitConfig()) -> List[Item]:
     """The items with each run of drawn chords that lies on a circle as one arc.  An arc keeps the
     line number of its first chord; everything else passes unchanged and in order."""
-    out: List[Item] = []
-    chain: List[Move] = []
+    return list(iter_fit_arcs(items, config))
 
-    def flush() -> None:
-        out.extend(_fit_chain(chain, config) if len(chain) >= config.min_moves else chain)
-        chain.clear()
+
+def iter_fit_arcs(items: Iterable[Item], config: FitConfig = FitConfig()) -> Iterator[Item]:
+    """fit_arcs one item at a time, holding a chain of chords no longer than decides its next pieces
+    (a few times max_moves): the pieces are the same as the whole chain's."""
+    chain: List[Move] = []
+    hold = 4 * (config.max_moves + 1)
+
+    def flush(final: bool) -> List[Move]:
+        if final and len(chain) < config.min_moves:
+            out = list(chain)
+            chain.clear()
+            return out
+        out, covered = _fit_chain(chain, config, final)
+        del chain[:covered]
+        return out
 
     for item in items:
         if _drawn_line(item):
             prev = chain[-1] if chain else None
             joined = prev is None or math.dist((prev.x, prev.y), (item.sx, item.sy)) <= 1e-9
             if prev is not None and (item.feed != prev.feed or not joined):
-                flush()
+                yield from flush(True)
             chain.append(item)
+            if len(chain) >= hold:
+                yield from flush(False)
             continue
-        flush()
-        out.append(item)
-    flush()
-    return out
+        yield from flush(True)
+        yield item
+    yield from flush(True)

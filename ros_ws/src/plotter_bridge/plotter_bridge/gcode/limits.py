@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import Iterable, List
+from typing import Iterable, Iterator, List, Optional
 
 from .types import GCodeError, GCodeErrors, Item, Move, ZMove
 from .geometry import arc_extreme_points
@@ -41,6 +41,34 @@ def check_limits(items: Iterable[Item], limits: WorkArea = WorkArea()) -> None:
         raise GCodeErrors(errors)
 
 
+def limit_error(item: Item, limits: WorkArea) -> Optional[str]:
+    """Why a move leaves the work area (or the Z axis' travel), or None (see limit_errors)."""
+    if isinstance(item, ZMove) and not (limits.z_min - LIMIT_EPSILON <= item.z <= limits.z_max + LIMIT_EPSILON):
+        return f"Z move to Z{item.z:.4f} is outside the Z axis' travel (Z {limits.z_min:g}..{limits.z_max:g} mm)"
+    if not isinstance(item, Move):
+        return None
+    if not limits.contains(item.x, item.y):
+        return f"move to X{item.x:.4f} Y{item.y:.4f} is outside the work area ({limits.describe()})"
+    if item.kind != "arc":
+        return None
+    for px, py in arc_extreme_points((item.sx, item.sy), (item.x, item.y), (item.cx, item.cy), bool(item.cw)):
+        if not limits.contains(px, py):
+            return f"arc leaves the work area at X{px:.4f} Y{py:.4f} ({limits.describe()})"
+    return None
+
+
+def within_limits(items: Iterable[Item], limits: WorkArea, errors: List[GCodeError]) -> Iterator[Item]:
+    """The items, unchanged, one at a time; a GCodeError added to `errors` for each line with a move
+    that leaves the work area, for its first such move."""
+    refused = None
+    for item in items:
+        why = limit_error(item, limits)
+        if why is not None and item.line != refused:
+            errors.append(GCodeError(item.line, why))
+            refused = item.line
+        yield item
+
+
 def limit_errors(items: Iterable[Item], limits: WorkArea = WorkArea()) -> List[GCodeError]:
     """One GCodeError for each line with a move that leaves the work area (or
     the Z axis' travel), for its first such move.
@@ -51,28 +79,6 @@ def limit_errors(items: Iterable[Item], limits: WorkArea = WorkArea()) -> List[G
     its ends are inside.
     """
     errors: List[GCodeError] = []
-
-    def refuse(line: int, message: str) -> None:
-        if not errors or errors[-1].line != line:
-            errors.append(GCodeError(line, message))
-
-    for item in items:
-        if isinstance(item, ZMove) and not (limits.z_min - LIMIT_EPSILON <= item.z
-                                            <= limits.z_max + LIMIT_EPSILON):
-            refuse(item.line, f"Z move to Z{item.z:.4f} is outside the Z axis' travel "
-                              f"(Z {limits.z_min:g}..{limits.z_max:g} mm)")
-        if not isinstance(item, Move):
-            continue
-        if not limits.contains(item.x, item.y):
-            refuse(item.line, f"move to X{item.x:.4f} Y{item.y:.4f} is outside "
-                              f"the work area ({limits.describe()})")
-            continue
-        if item.kind != "arc":
-            continue
-        for px, py in arc_extreme_points((item.sx, item.sy), (item.x, item.y),
-                                         (item.cx, item.cy), bool(item.cw)):
-            if not limits.contains(px, py):
-                refuse(item.line, f"arc leaves the work area at X{px:.4f} "
-                                  f"Y{py:.4f} ({limits.describe()})")
-                break
+    for _ in within_limits(items, limits, errors):
+        pass
     return errors

@@ -55,7 +55,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field
-from typing import Tuple, Dict, List, Optional
+from typing import Dict, Iterator, List, Optional, Sequence, Tuple
 
 from . import geometry
 from .dialect import MAX_SERVO_ANGLE, GCodeOptions, dialect_hint, m_code_reason
@@ -121,8 +121,9 @@ class _State:
     cycle_return: int = 980      # G98: back to the Z the cycle started at; G99: to R
     tool: int = 0                # the last T word: the pen an M6 puts in
     comment: str = ""            # the comment of the line being read
-    items: List[Item] = field(default_factory=list)
+    items: List[Item] = field(default_factory=list)   # the line's, until they are handed on
     notes: List[Note] = field(default_factory=list)
+    drawn: bool = False          # a drawn move before the line being read
 
 
 @dataclass(frozen=True)
@@ -390,7 +391,7 @@ def _pen_words(st: _State, m_code: Optional[int], o: Dict[str, float], nonmodal:
         _set_pen(st, PEN_DOWN if on else PEN_UP, line)
     if m_code == 6:
         _set_pen(st, PEN_UP, line)
-        drawn = any(isinstance(i, Move) and i.pen == PEN_DOWN and not i.rapid for i in st.items)
+        drawn = st.drawn or any(isinstance(i, Move) and i.pen == PEN_DOWN and not i.rapid for i in st.items)
         st.items.append(ToolChange(line, st.tool, st.comment, wait=drawn))
         if not drawn:
             st.notes.append(Note(line, _TOOL_CHANGE_NOTE))
@@ -622,41 +623,76 @@ def _errors(errors: List[GCodeError], notes: List[Note]) -> GCodeErrors:
     return GCodeErrors(errors[:MAX_ERRORS], notes, more=max(0, len(errors) - MAX_ERRORS))
 
 
-def _read(text: str, rapid_rate: float, start: Tuple[float, float], z_axis: bool, start_z: float,
-          options: GCodeOptions) -> Tuple[Program, List[GCodeError]]:
+@dataclass
+class Reading:
+    """What reading a program found besides its items, complete once they are all taken."""
+    notes: List[Note] = field(default_factory=list)
+    errors: List[GCodeError] = field(default_factory=list)
+
+    def raise_errors(self, more: Sequence[GCodeError] = ()) -> None:
+        """GCodeErrors with every refused line, these and `more` (the work area's), if any."""
+        if self.errors or more:
+            raise _errors(self.errors + list(more), self.notes)
+
+
+def program_lines(text: str) -> Iterator[Tuple[int, str]]:
+    """(number from 1, text) of each line, without its line end; a last empty line is none.
+    One at a time: a million-line program is not copied into a list of lines."""
+    pos, size, number = 0, len(text), 0
+    while pos < size:
+        end = text.find("\n", pos)
+        if end < 0:
+            end = size
+        number += 1
+        raw = text[pos:end]
+        yield number, raw[:-1] if raw.endswith("\r") else raw
+        pos = end + 1
+
+
+def read_items(text: str, reading: Reading, rapid_rate: float = DEFAULT_RAPID_RATE,
+               start: Tuple[float, float] = (0.0, 0.0), *, z_axis: bool = False, start_z: float = 0.0,
+               options: GCodeOptions = GCodeOptions()) -> Iterator[Item]:
+    """The items of a program (see parse_program) one line at a time; the refused lines and the
+    notes go into `reading` as they are found, so that none is known complete until the last item
+    is taken (Reading.raise_errors then)."""
     if not (math.isfinite(rapid_rate) and rapid_rate > 0.0):
         raise ValueError(f"rapid rate must be positive, not {rapid_rate!r}")
     st = _State(x=float(start[0]), y=float(start[1]), z_axis=z_axis,
-                z=float(start_z) if z_axis else 0.0, options=options)
-    lines = text.split("\n")
-    if lines and lines[-1] == "":
-        lines.pop()
-    last_line = max(len(lines), 1)
-    blank = True
-    errors: List[GCodeError] = []
-    for number, raw in enumerate(lines, start=1):
-        if raw.endswith("\r"):
-            raw = raw[:-1]
+                z=float(start_z) if z_axis else 0.0, options=options, notes=reading.notes)
+    last_line, blank, moved, ended = 1, True, False, False
+    for number, raw in program_lines(text):
+        last_line = number
         try:
             tokens = tokenize_line(raw, number, options)
             if tokens.note:
                 st.notes.append(Note(number, tokens.note))
             blank = blank and not tokens.words and not tokens.note
             st.comment = tokens.comment
-            ends = bool(tokens.words) and _execute(st, tokens.words, number, rapid_rate)
+            ended = bool(tokens.words) and _execute(st, tokens.words, number, rapid_rate)
             if tokens.message:
                 st.notes.append(Note(number, f"message {tokens.message!r}: shown here, not on the board"))
         except GCodeError as exc:
-            errors.append(exc)
+            reading.errors.append(exc)
             blank = False
-            continue
-        if ends:
-            last_line = number
+        if st.items:
+            for item in st.items:
+                if isinstance(item, (Move, ZMove)):
+                    moved = True
+                    st.drawn = st.drawn or (isinstance(item, Move) and item.pen == PEN_DOWN and not item.rapid)
+                yield item
+            st.items.clear()
+        if ended:
             break
-    if not errors and not any(isinstance(item, (Move, ZMove)) for item in st.items):
-        errors.append(GCodeError(last_line, "empty program: no G-code words"
-                                 if blank else "program makes no moves"))
-    return Program(st.items, st.notes), errors
+    if not reading.errors and not moved:
+        reading.errors.append(GCodeError(last_line, "empty program: no G-code words"
+                                         if blank else "program makes no moves"))
+
+
+def _read(text: str, rapid_rate: float, start: Tuple[float, float], z_axis: bool, start_z: float,
+          options: GCodeOptions) -> Tuple[Program, List[GCodeError]]:
+    reading = Reading()
+    items = list(read_items(text, reading, rapid_rate, start, z_axis=z_axis, start_z=start_z, options=options))
+    return Program(items, reading.notes), reading.errors
 
 
 def check_program(text: str, area: Optional[WorkArea], rapid_rate: float = DEFAULT_RAPID_RATE,

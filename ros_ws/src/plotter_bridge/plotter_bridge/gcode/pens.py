@@ -8,7 +8,7 @@ program goes on, so the moves after it start where the program has them.
 from __future__ import annotations
 
 import re
-from typing import List, Optional, Sequence, Tuple
+from typing import Iterable, Iterator, List, Optional, Sequence, Tuple
 
 from .types import PEN_UP, Item, Move, ToolChange
 
@@ -18,7 +18,11 @@ _COLOUR = re.compile(r"#[0-9a-fA-F]{6}\b")
 def park_for_changes(items: Sequence[Item], park: Optional[Tuple[float, float]]) -> List[Item]:
     """The items with a pen-up travel to `park` before each ToolChange and back after it
     (None: the pen waits, lifted, where it is)."""
-    out: List[Item] = []
+    return list(iter_park_for_changes(items, park))
+
+
+def iter_park_for_changes(items: Iterable[Item], park: Optional[Tuple[float, float]]) -> Iterator[Item]:
+    """park_for_changes one item at a time."""
     at: Optional[Tuple[float, float]] = None
     feed = 0.0
     for item in items:
@@ -27,12 +31,11 @@ def park_for_changes(items: Sequence[Item], park: Optional[Tuple[float, float]])
         if isinstance(item, ToolChange) and item.wait and park is not None and at is not None \
                 and at != tuple(park):
             px, py = float(park[0]), float(park[1])
-            out.append(Move(item.line, "line", at[0], at[1], px, py, feed, PEN_UP, rapid=True))
-            out.append(item)
-            out.append(Move(item.line, "line", px, py, at[0], at[1], feed, PEN_UP, rapid=True))
+            yield Move(item.line, "line", at[0], at[1], px, py, feed, PEN_UP, rapid=True)
+            yield item
+            yield Move(item.line, "line", px, py, at[0], at[1], feed, PEN_UP, rapid=True)
         else:
-            out.append(item)
-    return out
+            yield item
 
 
 def change_label(change: ToolChange) -> str:

@@ -35,7 +35,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
-from typing import Iterable, List, Optional, Tuple, Union
+from typing import Iterable, Iterator, List, Optional, Tuple, Union
 
 from .types import Dwell, Item, Move, Pause, PenChange
 from .geometry import TWO_PI, Point, arc_midpoint, arc_sweep
@@ -188,12 +188,19 @@ def to_steps(items: Iterable[Item], steps_per_mm: float) -> List[StepItem]:
     A move gives one StepMove, except an arc of more than 180 degrees (not a
     full circle), which gives two.
     """
+    return list(iter_steps(items, steps_per_mm))
+
+
+def iter_steps(items: Iterable[Item], steps_per_mm: float) -> Iterator[StepItem]:
+    """to_steps one item at a time (a bad steps_per_mm is refused at the call)."""
     if not math.isfinite(steps_per_mm) or steps_per_mm <= 0.0:
         raise ValueError(f"steps per mm must be positive, not {steps_per_mm!r}")
-    out: List[StepItem] = []
+    return _steps(items, steps_per_mm)
+
+
+def _steps(items: Iterable[Item], steps_per_mm: float) -> Iterator[StepItem]:
     for item in items:
         if isinstance(item, Move):
-            out.extend(_convert(item, steps_per_mm))
+            yield from _convert(item, steps_per_mm)
         else:
-            out.append(item)
-    return out
+            yield item

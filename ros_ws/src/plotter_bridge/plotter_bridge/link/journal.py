@@ -20,7 +20,7 @@ import re
 import time
 from dataclasses import asdict, dataclass, field
 from pathlib import Path
-from typing import List, Optional, Tuple
+from typing import List, Optional, Sequence, Tuple
 
 from .protocol import MAX_DELTA, MAX_RATE, MIN_RATE
 
@@ -38,7 +38,7 @@ class JobRecord:
     job_id: str
     name: str
     commands: List[str]
-    lines: List[int]
+    lines: Sequence[int]             # a list, or an array of a compiled job's (motion/compiler.py)
     start: Tuple[int, int]            # pen position in steps when the job began
     start_pen: bool = False
     rapid_rate: int = MAX_RATE        # steps/s for the travel of a resume
@@ -82,7 +82,9 @@ class Journal:
         os.replace(tmp, path)
 
     def create(self, record: JobRecord) -> None:
-        self._write(self._path(record.job_id, "job"), asdict(record))
+        data = asdict(record)
+        data["lines"] = list(record.lines)           # an array of a compiled job's lines, as JSON
+        self._write(self._path(record.job_id, "job"), data)
         self.update(record.job_id, Progress())
 
     def update(self, job_id: str, progress: Progress) -> None:
@@ -237,4 +239,4 @@ def resume_commands(record: JobRecord, completed: int, pen_at: Tuple[int, int],
         if pen != pen_down:
             head.append("P 1" if pen else "P 0")
     commands = head + record.commands[completed:]
-    return commands, [line] * len(head) + record.lines[completed:]
+    return commands, [line] * len(head) + list(record.lines[completed:])

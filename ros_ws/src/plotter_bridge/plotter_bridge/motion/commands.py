@@ -13,7 +13,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
-from typing import Callable, Iterable, List, Optional, Tuple
+from typing import Callable, Iterable, Iterator, List, Optional, Tuple
 
 from plotter_bridge.gcode.steps import StepMove, round_step
 from plotter_bridge.gcode.pens import change_label
@@ -177,39 +177,43 @@ def to_commands(items: Iterable[object], motion: MotionConverter,
     """Board commands for a program's items; `motion` turns each move into
     board motion for the machine, `z_motion` each ZMove; pen changes only
     when needed."""
-    out: List[BoardCommand] = []
+    return list(iter_commands(items, motion, rapid_feed, z_motion))
+
+
+def iter_commands(items: Iterable[object], motion: MotionConverter, rapid_feed: float = 6000.0,
+                  z_motion: Optional[MotionConverter] = None) -> Iterator[BoardCommand]:
+    """to_commands one item at a time."""
     pen: Optional[str] = None
     changes = 0
 
-    def set_pen(want: str, line: int) -> None:
+    def set_pen(want: str, line: int) -> Iterator[BoardCommand]:
         nonlocal pen
         if want != pen:
-            out.append(BoardCommand("P", (1 if want == "down" else 0,), line))
             pen = want
+            yield BoardCommand("P", (1 if want == "down" else 0,), line)
 
     for item in items:
         if isinstance(item, PenChange):
-            set_pen(item.pen, item.line)
+            yield from set_pen(item.pen, item.line)
         elif isinstance(item, Dwell):
             ms = int(round(item.seconds * 1000))
             while ms > 0:
-                out.append(BoardCommand("D", (min(ms, 65535),), item.line))
+                yield BoardCommand("D", (min(ms, 65535),), item.line)
                 ms -= 65535
         elif isinstance(item, Pause):
             # M0: the board has no operator pause; the pen comes to rest here.
-            out.append(BoardCommand("D", (1,), item.line))
+            yield BoardCommand("D", (1,), item.line)
         elif isinstance(item, ToolChange):
             if not item.wait:
                 continue              # the pen in the holder: nothing to do
             # the bridge holds the job here (link/board_session.py): the pen must be up first
-            set_pen("up", item.line)
-            out.append(BoardCommand(PEN_CHANGE, (changes,), item.line, note=change_label(item)))
+            yield from set_pen("up", item.line)
+            yield BoardCommand(PEN_CHANGE, (changes,), item.line, note=change_label(item))
             changes += 1
         elif isinstance(item, ZMove):
             if z_motion is None:
                 raise ValueError(f"line {item.line}: a Z move for a machine without a Z axis")
-            out.extend(z_motion(item, rapid_feed if item.rapid else item.feed))
+            yield from z_motion(item, rapid_feed if item.rapid else item.feed)
         else:
-            set_pen("up" if item.rapid else item.pen, item.line)
-            out.extend(motion(item, rapid_feed if item.rapid else item.feed))
-    return out
+            yield from set_pen("up" if item.rapid else item.pen, item.line)
+            yield from motion(item, rapid_feed if item.rapid else item.feed)

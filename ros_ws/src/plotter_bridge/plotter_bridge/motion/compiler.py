@@ -6,23 +6,24 @@ all happen here, completely, so that a bad program is refused whole.
 from __future__ import annotations
 
 import math
+from array import array
 from dataclasses import dataclass
-from typing import Callable, List, Optional, Sequence, Tuple
+from typing import Callable, Iterable, Iterator, List, Optional, Sequence, Tuple, Union
 
-from .commands import (FIRMWARE_ACCEL, MAX_ARC_RATE, MAX_RATE, BoardCommand, cartesian_motion, to_commands,
+from .commands import (FIRMWARE_ACCEL, MAX_ARC_RATE, MAX_RATE, BoardCommand, cartesian_motion, iter_commands,
                        z_axis_motion)
-from plotter_bridge.link.protocol import DEFAULT_BAUD
+from plotter_bridge.link.protocol import DEFAULT_BAUD, PEN_CHANGE
 from plotter_bridge.gcode.dialect import (DEFAULT_MARLIN_PEN_DOWN, DEFAULT_MARLIN_PEN_UP, DEFAULT_PEN_UP_Z,
                                           LINUXCNC, GCodeOptions)
-from plotter_bridge.gcode.arcfit import FitConfig, fit_arcs
-from plotter_bridge.gcode.parser import check_program, decode_program
-from plotter_bridge.gcode.limits import WorkArea
-from plotter_bridge.gcode.pens import park_for_changes
-from plotter_bridge.gcode.steps import MAX_OFFSET, to_steps
+from plotter_bridge.gcode.arcfit import FitConfig, iter_fit_arcs
+from plotter_bridge.gcode.parser import Reading, decode_program, read_items
+from plotter_bridge.gcode.limits import WorkArea, within_limits
+from plotter_bridge.gcode.pens import iter_park_for_changes
+from plotter_bridge.gcode.steps import MAX_OFFSET, iter_steps
 from plotter_bridge.gcode.types import GCodeError, Item, Move, ToolChange
 from .hanging import hanging_motion
 from .kinematics import DEFAULT_Z_STEPS_PER_MM, HangingGeometry, check_z
-from .planner import BOARD_CPU, LINK_SHARE, BoardCpu, PlannerLimits, cap_for_link, plan
+from .planner import BOARD_CPU, LINK_SHARE, BoardCpu, PlannerLimits, iter_cap_for_link, iter_plan
 
 MAX_PROGRAM_BYTES = 4 * 1024 * 1024
 LINE_WIRE_BYTES = 27     # a short line command on the wire (benchmarks/RESULTS.md: 27.3-27.7 a command)
@@ -108,10 +109,67 @@ def compile_program(text: str, config: StreamerConfig,
     return compile_job(text, config, start_steps, start_z_steps)[1]
 
 
+@dataclass
+class CompiledJob:
+    """A program's board commands as few objects as they can be: a million-line job is a list of
+    short strings and an array of their source lines, not a million command objects."""
+    texts: List[str]                   # each command as sent (BoardCommand.text)
+    lines: "array[int]"                # the program's line each comes from
+    pens: List[str]                    # what each pen change ("M6 k") tells the operator, in order
+    z_line: Optional[int] = None       # the first Z command's line (None: no Z axis needed)
+
+
+def compile_texts(text: Union[str, bytes], config: StreamerConfig, start_steps: Tuple[int, int] = (0, 0),
+                  start_z_steps: int = 0) -> CompiledJob:
+    """compile_program, kept as CompiledJob: each command is planned and formatted as the program is
+    read, so that no stage holds more of the program than its own window (iter_plan, iter_fit_arcs);
+    the program is still refused whole, before anything of it is sent."""
+    texts: List[str] = []
+    lines = array("I")              # uint32, as StreamCommands.lines: the goal takes it as it is
+    pens: List[str] = []
+    z_line: Optional[int] = None
+    for cmd in compile_stream(text, config, start_steps, start_z_steps):
+        texts.append(cmd.text)
+        lines.append(cmd.line)
+        if cmd.verb == PEN_CHANGE:
+            pens.append(cmd.note)
+        elif z_line is None and cmd.verb == "Z":
+            z_line = cmd.line
+    return CompiledJob(texts, lines, pens, z_line)
+
+
+def compile_stream(text: Union[str, bytes], config: StreamerConfig, start_steps: Tuple[int, int] = (0, 0),
+                   start_z_steps: int = 0) -> Iterator[BoardCommand]:
+    """compile_program one command at a time.  The program's refusals are known only when it has been
+    read to its end, so the GCodeError comes after the last command: a caller sends nothing before."""
+    reading, outside, park = Reading(), [], []
+    checked = _checked_items(text, config, start_steps, start_z_steps, reading, outside)
+    try:
+        yield from _commands(_board_items(checked, config, park), config)
+    except (GCodeError, ValueError):
+        for _ in checked:            # a later stage's complaint about a line the reading refuses
+            pass
+        if not reading.errors and not outside:
+            raise
+    for _ in checked:
+        pass
+    _raise_refusals(reading, outside, park)
+
+
 def compile_job(text: str, config: StreamerConfig, start_steps: Tuple[int, int] = (0, 0),
                 start_z_steps: int = 0) -> Tuple[List[Item], List[BoardCommand]]:
     """compile_program, with the program's items as they were turned into the commands
     (the park travel added, arcs fitted; machine mm): what a preview draws."""
+    reading, outside, park = Reading(), [], []
+    items = list(_checked_items(text, config, start_steps, start_z_steps, reading, outside))
+    _raise_refusals(reading, outside, [])
+    items = list(_board_items(items, config, park))
+    _raise_refusals(reading, outside, park)
+    return items, list(_commands(items, config))
+
+
+def _checked_items(text: Union[str, bytes], config: StreamerConfig, start_steps: Tuple[int, int],
+                   start_z_steps: int, reading: Reading, outside: List[GCodeError]) -> Iterator[Item]:
     data = text.encode("utf-8", "surrogateescape") if isinstance(text, str) else text
     if len(data) > MAX_PROGRAM_BYTES:
         raise GCodeError(0, f"program too large: {len(data)} bytes (limit {MAX_PROGRAM_BYTES})")
@@ -119,28 +177,47 @@ def compile_job(text: str, config: StreamerConfig, start_steps: Tuple[int, int] 
         start = config.hanging.forward(start_steps)
     else:
         start = (start_steps[0] / config.steps_per_mm, start_steps[1] / config.steps_per_mm)
-    z_axis = config.z_mode == "axis"
-    items = check_program(decode_program(data), config.area, rapid_rate=config.rapid_feed, start=start,
-                          z_axis=z_axis, start_z=start_z_steps / config.z_steps_per_mm,
-                          options=config.gcode_options()).items
-    change = next((i for i in items if isinstance(i, ToolChange) and i.wait), None)
-    if change is not None and config.park is not None and config.area is not None \
-            and not config.area.contains(*config.park):
-        raise GCodeError(change.line, f"pen change: the pen would wait at the park position X{config.park[0]:g} "
-                                      f"Y{config.park[1]:g}, outside the work area")
-    items = park_for_changes(items, config.park)
+    items = read_items(decode_program(data), reading, rapid_rate=config.rapid_feed, start=start,
+                       z_axis=config.z_mode == "axis", start_z=start_z_steps / config.z_steps_per_mm,
+                       options=config.gcode_options())
+    return within_limits(items, config.area, outside) if config.area is not None else items
+
+
+def _raise_refusals(reading: Reading, outside: List[GCodeError], park: List[GCodeError]) -> None:
+    reading.raise_errors(outside)
+    if park:
+        raise park[0]
+
+
+def _board_items(items: Iterable[Item], config: StreamerConfig, park: List[GCodeError]) -> Iterator[Item]:
+    """The checked items as the board draws them: the travel to the park position and back around each
+    pen change, runs of chords fitted as arcs.  A park position outside the work area is put in `park`."""
+    def parked(items: Iterable[Item]) -> Iterator[Item]:
+        for item in items:
+            if isinstance(item, ToolChange) and item.wait and not park and config.park is not None \
+                    and config.area is not None and not config.area.contains(*config.park):
+                park.append(GCodeError(item.line, f"pen change: the pen would wait at the park position "
+                                                  f"X{config.park[0]:g} Y{config.park[1]:g}, outside the work area"))
+            yield item
+
+    items = iter_park_for_changes(parked(items), config.park)
     if config.fit_arcs and config.machine == "cartesian":
         # (the hanging machine's moves go as short lines whatever they were)
-        items = fit_arcs(items, board_fit(config.arc_tolerance, config.area, config.motor_steps_per_mm(),
-                                          config.link_baud, BOARD_CPU if config.board_cpu else None))
-    z_motion = z_axis_motion(config.z_steps_per_mm) if z_axis else None
+        items = iter_fit_arcs(items, board_fit(config.arc_tolerance, config.area, config.motor_steps_per_mm(),
+                                               config.link_baud, BOARD_CPU if config.board_cpu else None))
+    return items
+
+
+def _commands(items: Iterable[Item], config: StreamerConfig) -> Iterator[BoardCommand]:
+    z_motion = z_axis_motion(config.z_steps_per_mm) if config.z_mode == "axis" else None
     if config.machine == "hanging":
-        commands = to_commands(items, hanging_motion(config.hanging, config.tolerance), config.rapid_feed,
-                               z_motion)
+        commands = iter_commands(items, hanging_motion(config.hanging, config.tolerance), config.rapid_feed,
+                                 z_motion)
     else:
-        commands = to_commands(to_steps(items, config.steps_per_mm),
-                               cartesian_motion(config.steps_per_mm), config.rapid_feed, z_motion)
+        commands = iter_commands(iter_steps(items, config.steps_per_mm),
+                                 cartesian_motion(config.steps_per_mm), config.rapid_feed, z_motion)
     if config.link_baud > 0:
-        cap_for_link(commands, config.link_baud / 10.0, first_seq=None if config.link_seq < 0 else config.link_seq,
-                     cpu=BOARD_CPU if config.board_cpu else None)
-    return items, plan(commands, config.limits()) if config.lookahead else commands
+        commands = iter_cap_for_link(commands, config.link_baud / 10.0,
+                                     first_seq=None if config.link_seq < 0 else config.link_seq,
+                                     cpu=BOARD_CPU if config.board_cpu else None)
+    return iter_plan(commands, config.limits()) if config.lookahead else commands

@@ -23,7 +23,8 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
-from typing import List, Optional, Sequence, Tuple
+from collections import deque
+from typing import Deque, Iterable, Iterator, List, Optional, Sequence
 
 from .commands import BoardCommand, MIN_RATE
 from plotter_bridge.link.protocol import SEQ_MOD, compact_command
@@ -86,16 +87,6 @@ class BoardCpu:
 BOARD_CPU = BoardCpu()
 
 
-def _trailing_rates(steps: Sequence[int], seconds: Sequence[float], window: int) -> List[float]:
-    """Per command, the mean rate (steps / seconds) of the stretch of up to
-    `window` commands that ends with it."""
-    out = []
-    for k in range(len(steps)):
-        a = max(0, k - window + 1)
-        out.append(sum(steps[a:k + 1]) / sum(seconds[a:k + 1]))
-    return out
-
-
 def cap_for_link(commands: Sequence[BoardCommand], link_bytes_per_s: float,
                  share: float = LINK_SHARE, window: int = BOARD_QUEUE,
                  first_seq: Optional[int] = None, cpu: Optional[BoardCpu] = BOARD_CPU) -> List[BoardCommand]:
@@ -120,13 +111,18 @@ def cap_for_link(commands: Sequence[BoardCommand], link_bytes_per_s: float,
     `cpu`: the board's own time per command (BoardCpu), the floor under
     the link's: a command takes at least that long to be parsed and
     planned, at any baud rate (None: a board that plans in no time)."""
-    if link_bytes_per_s <= 0:
-        return list(commands)
-    bytes_per_s = link_bytes_per_s * share
-    run: List[Tuple[int, BoardCommand]] = []
+    return list(iter_cap_for_link(commands, link_bytes_per_s, share, window, first_seq, cpu))
 
-    def seq(k: int) -> Optional[int]:
-        return None if first_seq is None else first_seq + k
+
+def iter_cap_for_link(commands: Iterable[BoardCommand], link_bytes_per_s: float,
+                      share: float = LINK_SHARE, window: int = BOARD_QUEUE,
+                      first_seq: Optional[int] = None, cpu: Optional[BoardCpu] = BOARD_CPU) -> Iterator[BoardCommand]:
+    """cap_for_link one command at a time: a command's cap depends only on it and the commands
+    before it, so each goes on as soon as it is capped."""
+    if link_bytes_per_s <= 0:
+        yield from commands
+        return
+    bytes_per_s = link_bytes_per_s * share
 
     def need(cmd: BoardCommand, rate: int, number: Optional[int]) -> float:
         """Seconds the link and the board need for a command at `rate` (0: its own).  With the board's
@@ -136,27 +132,26 @@ def cap_for_link(commands: Sequence[BoardCommand], link_bytes_per_s: float,
         if cpu is None:
             return n / bytes_per_s
         parse = cpu.seconds(cmd)
-        window = ((n + REPLY_BYTES) / link_bytes_per_s + parse) * n / RX_BUFFER
-        return max(n / bytes_per_s, parse, window / share)
+        held = ((n + REPLY_BYTES) / link_bytes_per_s + parse) * n / RX_BUFFER
+        return max(n / bytes_per_s, parse, held / share)
 
-    def flush() -> None:
-        steps = [c.steps for _, c in run]
-        rates = [c.rate for _, c in run]
-        for _ in range(2):
-            seconds = [need(c, r, seq(k)) for (k, c), r in zip(run, rates)]
-            caps = _trailing_rates(steps, seconds, window)
-            rates = [max(MIN_RATE, min(c.rate, int(cap))) for (_, c), cap in zip(run, caps)]
-        for (_, c), r in zip(run, rates):
-            c.rate = r
-        run.clear()
-
+    # The run's last `window` commands: steps and seconds at their own rates, then at the first caps;
+    # each cap is the mean rate of those (twice, as a lower rate may take fewer digits on the wire).
+    steps: Deque[int] = deque(maxlen=window)
+    first: Deque[float] = deque(maxlen=window)
+    second: Deque[float] = deque(maxlen=window)
     for k, cmd in enumerate(commands):
-        if cmd.is_motion and cmd.steps > 0 and cmd.steps / cmd.rate < need(cmd, 0, seq(k)):
-            run.append((k, cmd))
-        else:
-            flush()
-    flush()
-    return list(commands)
+        number = None if first_seq is None else first_seq + k
+        if not (cmd.is_motion and cmd.steps > 0 and cmd.steps / cmd.rate < need(cmd, 0, number)):
+            steps.clear(), first.clear(), second.clear()
+            yield cmd
+            continue
+        steps.append(cmd.steps)
+        first.append(need(cmd, cmd.rate, number))
+        rate = max(MIN_RATE, min(cmd.rate, int(sum(steps) / sum(first))))
+        second.append(need(cmd, rate, number))
+        cmd.rate = max(MIN_RATE, min(cmd.rate, int(sum(steps) / sum(second))))
+        yield cmd
 
 
 def link_baud(parameter: int, bridge_baud: int) -> int:
@@ -178,31 +173,63 @@ def junction_rate(a: BoardCommand, b: BoardCommand, limits: PlannerLimits) -> fl
     return math.sqrt(limits.acceleration * limits.junction_deviation * sin_half / (1.0 - sin_half))
 
 
+PLAN_HORIZON = 50000   # commands of one chain held at most before some go on (see iter_plan)
+
+
 def plan(commands: Sequence[BoardCommand], limits: PlannerLimits) -> List[BoardCommand]:
     """Set exit_rate on every motion command (in place) and return the list."""
+    return list(iter_plan(commands, limits))
+
+
+def iter_plan(commands: Iterable[BoardCommand], limits: PlannerLimits,
+              horizon: int = PLAN_HORIZON) -> Iterator[BoardCommand]:
+    """plan one command at a time, holding no more of a chain of motion commands than decides the
+    exits of those that go on.
+
+    The backward pass brakes each command for what follows.  Run over the commands held, as if the
+    chain ended after them, a command whose exit its own limits (its rate, its neighbour's, the
+    junction) bound rather than the braking for the rest is exact: a longer rest could only let it
+    go faster than those limits.  It and all before it go on (the forward pass is causal); the rest
+    wait for more.  A chain that brakes all the way through `horizon` commands lets its first half
+    go as if it stopped there: never faster than the whole plan, only slower."""
     a2 = 2.0 * limits.acceleration
     chain: List[BoardCommand] = []
+    entry = 0
+    tried = 0
 
-    def flush() -> None:
+    def settle(final: bool) -> Iterator[BoardCommand]:
+        nonlocal entry, tried
         n = len(chain)
         # Whole steps/s throughout: the board is sent integers, and the checks
         # below must hold for exactly what it is sent.
         exits = [0] * n
+        cut = n - 1 if final else -1
         for i in range(n - 2, -1, -1):           # backward: brake in time for what follows
             nxt = chain[i + 1]
-            exits[i] = int(min(junction_rate(chain[i], nxt, limits), chain[i].rate, nxt.rate,
-                               math.sqrt(exits[i + 1] ** 2 + a2 * nxt.steps)))
-        entry = 0
-        for i, cmd in enumerate(chain):          # forward: only what acceleration can reach
-            exits[i] = min(exits[i], int(math.sqrt(entry ** 2 + a2 * cmd.steps)))
-            cmd.exit_rate = exits[i] if exits[i] >= MIN_RATE else 0
+            own = min(junction_rate(chain[i], nxt, limits), chain[i].rate, nxt.rate)
+            brake = math.sqrt(exits[i + 1] ** 2 + a2 * nxt.steps)
+            exits[i] = int(min(own, brake))
+            if cut < 0 and own <= brake:
+                cut = i
+        if cut < 0 and n >= horizon:
+            cut = n // 2
+        for i in range(cut + 1):                 # forward: only what acceleration can reach
+            cmd = chain[i]
+            exit_rate = min(exits[i], int(math.sqrt(entry ** 2 + a2 * cmd.steps)))
+            cmd.exit_rate = exit_rate if exit_rate >= MIN_RATE else 0
             entry = cmd.exit_rate
-        chain.clear()
+            yield cmd
+        del chain[:cut + 1]
+        if final:
+            entry = 0
+        tried = len(chain)
 
     for cmd in commands:
         if cmd.is_motion:
             chain.append(cmd)
+            if len(chain) >= 2 * tried + 64:
+                yield from settle(False)
         else:
-            flush()                               # pen changes and dwells start and end at rest
-    flush()
-    return list(commands)
+            yield from settle(True)               # pen changes and dwells start and end at rest
+            yield cmd
+    yield from settle(True)

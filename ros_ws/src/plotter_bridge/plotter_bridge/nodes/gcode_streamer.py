@@ -73,9 +73,9 @@ from plotter_bridge.link.follow import (FINISHED, FollowError, FollowTrack, foll
                                         follow_state_name, goal_or_defaults)
 from plotter_bridge.link.journal import (DONE, INTERRUPTED, RUNNING, Journal, JobRecord, Progress,
                                          default_journal_dir, resume_commands)
-from plotter_bridge.link.protocol import MAX_RATE, PEN_CHANGE
+from plotter_bridge.link.protocol import MAX_RATE
 from plotter_bridge.motion.commands import from_text
-from plotter_bridge.motion.compiler import MAX_PROGRAM_BYTES, StreamerConfig, compile_program
+from plotter_bridge.motion.compiler import MAX_PROGRAM_BYTES, StreamerConfig, compile_program, compile_texts
 from plotter_bridge.motion.planner import link_baud
 from plotter_bridge.motion.timing import JobPosition, JobProgress, command_seconds, pen_lengths
 
@@ -419,17 +419,15 @@ class GCodeStreamer(Node):
         if resume:
             return self._resume(resume, board, goal_handle)
         try:
-            commands = compile_program(text, self._job_config(board, dialect), start, board.z_steps)
+            job = compile_texts(text, self._job_config(board, dialect), start, board.z_steps)
         except GCodeError as exc:
             return Outcome(False, str(exc))
-        if not commands:
+        if not job.texts:
             return Outcome(True, "nothing to do")
-        z_line = next((c.line for c in commands if c.verb == "Z"), None)
-        if z_line is not None and not board.has_z:
-            return Outcome(False, f"line {z_line}: a Z move, and the board reports no Z axis "
+        if job.z_line is not None and not board.has_z:
+            return Outcome(False, f"line {job.z_line}: a Z move, and the board reports no Z axis "
                                   f"(firmware built without ZAXIS=1)")
-        record = self._record(name, [c.text for c in commands], [c.line for c in commands], board,
-                              [c.note for c in commands if c.verb == PEN_CHANGE])
+        record = self._record(name, job.texts, job.lines, board, job.pens)
         return self._stream(record, goal_handle, self._program_feedback(record, goal_handle))
 
     def _job_config(self, board: BoardState, dialect: str = "") -> StreamerConfig:
