@@ -1,5 +1,6 @@
 """The bridge's RViz topics (path, planned_path, pen, ink) and /diagnostics (plotter_bridge.link.telemetry, nodes.telemetry)."""
 import math
+import random
 import threading
 import time
 
@@ -48,6 +49,29 @@ def test_planned_path_of_the_hanging_machine_is_in_pen_coordinates():
     # A cartesian machine's motors are its axes: nothing changes.
     plain = planned_pen_points(["L 800 0"], (100, 100), True, None, lambda m: m)
     assert [(p.x, p.y) for p in plain] == [(100, 100), (900, 100)]
+
+
+@pytest.mark.parametrize("segments, length", [(30_000, 120), (300_000, 120), (60_000, 8)])
+def test_a_big_jobs_planned_path_is_decimated_keeping_its_order_pen_changes_and_ends(segments, length):
+    """A random walk of short chords with the pen lifted every 50: at most MAX_PLANNED_POSES poses,
+    the walk's own points in its order, every pen change, the start and the end kept."""
+    from plotter_bridge.link.telemetry import MAX_PLANNED_POSES, planned_points
+    rng = random.Random(segments)
+    commands, heading = [], 0.0
+    for k in range(segments):
+        if k % 50 == 0:
+            commands.append(f"P {1 if k % 100 == 0 else 0}")
+        heading += rng.gauss(0.0, 0.6)
+        commands.append(f"L {round(length * math.cos(heading))} {round(length * math.sin(heading))} 4000 0")
+    pts = planned_pen_points(commands, (0, 0), False, None, lambda m: m)
+    full = planned_points(commands, (0, 0), False)
+    assert len(pts) <= MAX_PLANNED_POSES < len(full)
+    assert (pts[0], pts[-1]) == (full[0], full[-1])
+    changes = [(p.x, p.y) for a, p in zip(full, full[1:]) if a.pen_down != p.pen_down]
+    kept = {(p.x, p.y) for p in pts}
+    assert all(c in kept for c in changes)
+    walk = iter(full)
+    assert all(any(q == p for q in walk) for p in pts)                 # the walk's own points, in its order
 
 
 def test_step_rate_thinning_and_ink():

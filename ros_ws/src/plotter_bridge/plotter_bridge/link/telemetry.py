@@ -11,9 +11,10 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field, replace
-from typing import Callable, Iterable, List, Optional, Sequence, Tuple
+from typing import Callable, Iterable, Iterator, List, Optional, Sequence, Tuple
 
 MAX_PATH_POSES = 1500           # older poses are thinned out beyond this
+MAX_PLANNED_POSES = 20000       # poses of a planned path at most (decimate)
 STALE_AFTER = 1.0               # s without a status report: WARN
 ARC_STEP = 0.1                  # rad between points of an arc in the planned path
 
@@ -44,8 +45,13 @@ def _arc(x: float, y: float, dx: int, dy: int, i: int, j: int, cw: bool) -> List
 
 def planned_points(commands: Iterable[str], start: Tuple[int, int], pen_down: bool = False) -> List[PathPoint]:
     """Where a job's board commands (PROTOCOL.md: L, C, A, P, D) take the pen, in steps."""
+    return list(iter_planned_points(commands, start, pen_down))
+
+
+def iter_planned_points(commands: Iterable[str], start: Tuple[int, int],
+                        pen_down: bool = False) -> Iterator[PathPoint]:
     x, y = float(start[0]), float(start[1])
-    out = [PathPoint(x, y, pen_down)]
+    yield PathPoint(x, y, pen_down)
     for text in commands:
         parts = text.replace(",", " ").split()
         if not parts:
@@ -55,23 +61,56 @@ def planned_points(commands: Iterable[str], start: Tuple[int, int], pen_down: bo
             pen_down = args[0] == 1
         elif verb == "L" and len(args) >= 2:
             x, y = x + args[0], y + args[1]
-            out.append(PathPoint(x, y, pen_down))
+            yield PathPoint(x, y, pen_down)
         elif verb in ("C", "A") and len(args) >= 4:
-            pts = _arc(x, y, args[0], args[1], args[2], args[3], verb == "C")
-            out += [PathPoint(px, py, pen_down) for px, py in pts]
+            for px, py in _arc(x, y, args[0], args[1], args[2], args[3], verb == "C"):
+                yield PathPoint(px, py, pen_down)
             x, y = x + args[0], y + args[1]
-    return out
 
 
 ToPen = Callable[[Tuple[float, float]], Tuple[float, float]]
 
 
-def planned_pen_points(commands: Iterable[str], start: Tuple[int, int], pen_down: bool,
-                       end: Optional[Tuple[int, int]], to_pen: ToPen) -> List[PathPoint]:
+def decimate(points: Callable[[], Iterable[PathPoint]], limit: int = MAX_PLANNED_POSES) -> List[PathPoint]:
+    """At most `limit` of the points (`points()` gives them, each time afresh), as the eye sees them.
+
+    All of them if they are few enough.  Else first what cannot be seen: a point nearer than a
+    2000th of the drawing's extent (a pixel of a large view) to the last one kept goes, unless the
+    pen goes up or down there or it is the last.  If that is still too many (a dense drawing: a
+    stippling, a random walk), every k-th of those is kept, with the pen's changes and the last."""
+    count, lo_x, lo_y, hi_x, hi_y = 0, math.inf, math.inf, -math.inf, -math.inf
+    for p in points():
+        count += 1
+        lo_x, lo_y, hi_x, hi_y = min(lo_x, p.x), min(lo_y, p.y), max(hi_x, p.x), max(hi_y, p.y)
+    if count <= limit:
+        return list(points())
+    near = math.hypot(hi_x - lo_x, hi_y - lo_y) / 2000.0
+    kept: List[PathPoint] = []
+    last: Optional[PathPoint] = None
+    for k, p in enumerate(points()):
+        if last is None or p.pen_down != last.pen_down or k == count - 1 \
+                or abs(p.x - last.x) + abs(p.y - last.y) >= near:
+            kept.append(p)
+            last = p
+    if len(kept) <= limit:
+        return kept
+    def change(k: int) -> bool:          # the pen goes down or up here, or at the next point
+        return (k > 0 and kept[k].pen_down != kept[k - 1].pen_down) or \
+            (k + 1 < len(kept) and kept[k + 1].pen_down != kept[k].pen_down)
+    changes = sum(1 for k in range(len(kept)) if change(k))
+    stride = -(-len(kept) // max(limit - changes - 1, limit // 4))
+    out = [p for k, p in enumerate(kept) if k % stride == 0 or k == len(kept) - 1 or change(k)]
+    return out if len(out) <= limit else out[:limit - 1] + [kept[-1]]     # more strokes than poses
+
+
+def planned_pen_points(commands: Sequence[str], start: Tuple[int, int], pen_down: bool,
+                       end: Optional[Tuple[int, int]], to_pen: ToPen,
+                       limit: int = MAX_PLANNED_POSES) -> List[PathPoint]:
     """planned_points from the motor position `start`, shifted to end at the
     motor position `end` when the job knows it, then carried into pen
-    coordinates: board commands move the motors, so their sums are motor steps."""
-    pts = planned_points(commands, start, pen_down)
+    coordinates: board commands move the motors, so their sums are motor steps.
+    At most `limit` of them (decimate)."""
+    pts = decimate(lambda: iter_planned_points(commands, start, pen_down), limit)
     if end is not None:        # start where the job ends less its moves
         dx, dy = end[0] - pts[-1].x, end[1] - pts[-1].y
         pts = [replace(p, x=p.x + dx, y=p.y + dy) for p in pts]

@@ -25,7 +25,7 @@ from .hanging import hanging_motion
 from .kinematics import DEFAULT_Z_STEPS_PER_MM, HangingGeometry, check_z
 from .planner import BOARD_CPU, LINK_SHARE, BoardCpu, PlannerLimits, iter_cap_for_link, iter_plan
 
-MAX_PROGRAM_BYTES = 4 * 1024 * 1024
+MAX_PROGRAM_BYTES = 64 * 1024 * 1024   # a 20 MB drawing of a million short lines fits three times
 LINE_WIRE_BYTES = 27     # a short line command on the wire (benchmarks/RESULTS.md: 27.3-27.7 a command)
 
 

@@ -13,11 +13,12 @@ from __future__ import annotations
 import itertools
 import math
 import threading
-from typing import Callable, List, Sequence, Tuple
+from array import array
+from typing import Callable, Iterable, Iterator, List, Tuple
 
 from plotter_bridge.link.protocol import FIRMWARE_ACCEL
 
-from .commands import BoardCommand, arc_steps
+from .commands import BoardCommand, arc_steps, from_text
 
 PEN_DELAY_S = 0.150       # the firmware's default pen settle delay ($3)
 
@@ -39,59 +40,83 @@ def trapezoid_seconds(steps: float, entry: float, cruise: float, exit_: float,
     return (peak - v0) / acceleration + (peak - v1) / acceleration
 
 
-def command_seconds(commands: Sequence[BoardCommand], acceleration: float = FIRMWARE_ACCEL,
+def command_seconds(commands: Iterable[BoardCommand], acceleration: float = FIRMWARE_ACCEL,
                     pen_delay: float = PEN_DELAY_S) -> List[float]:
     """Seconds the board spends on each command."""
-    out, entry = [], 0.0
+    return list(iter_command_seconds(commands, acceleration, pen_delay))
+
+
+def iter_command_seconds(commands: Iterable[BoardCommand], acceleration: float = FIRMWARE_ACCEL,
+                         pen_delay: float = PEN_DELAY_S) -> Iterator[float]:
+    entry = 0.0
     for c in commands:
         if c.is_motion:
-            out.append(trapezoid_seconds(c.steps, entry, c.rate, c.exit_rate, acceleration))
+            yield trapezoid_seconds(c.steps, entry, c.rate, c.exit_rate, acceleration)
             entry = c.exit_rate
             continue
         if c.verb == "Z":
-            out.append(trapezoid_seconds(c.steps, 0.0, c.rate, c.exit_rate, acceleration))
+            yield trapezoid_seconds(c.steps, 0.0, c.rate, c.exit_rate, acceleration)
         elif c.verb == "P":
-            out.append(pen_delay)
+            yield pen_delay
         elif c.verb == "D":
-            out.append(c.args[0] / 1000.0)
+            yield c.args[0] / 1000.0
         else:
-            out.append(0.0)
+            yield 0.0
         entry = 0.0
-    return out
 
 
-def pen_lengths(commands: Sequence[BoardCommand], start: Tuple[int, int], pen_mm: PenMm,
+def pen_lengths(commands: Iterable[BoardCommand], start: Tuple[int, int], pen_mm: PenMm,
                 steps_per_mm: float) -> List[float]:
     """Millimetres the pen travels with each command (pen up or down), from
     the motor position `start`: lines between their ends as the machine puts
     the pen there (a hanging machine's chords are short), arcs along the
     circle."""
-    out, (x, y) = [], start
+    return list(iter_pen_lengths(commands, start, pen_mm, steps_per_mm))
+
+
+def iter_pen_lengths(commands: Iterable[BoardCommand], start: Tuple[int, int], pen_mm: PenMm,
+                     steps_per_mm: float) -> Iterator[float]:
+    x, y = start
     for c in commands:
         if not c.is_motion:
-            out.append(0.0)
+            yield 0.0
             continue
         dx, dy = c.args[0], c.args[1]
         if c.verb == "L":
             (ax, ay), (bx, by) = pen_mm((x, y)), pen_mm((x + dx, y + dy))
-            out.append(math.hypot(bx - ax, by - ay))
+            yield math.hypot(bx - ax, by - ay)
         else:
-            out.append(arc_steps(c.args[2], c.args[3], dx, dy, c.verb == "C")[1] / steps_per_mm)
+            yield arc_steps(c.args[2], c.args[3], dx, dy, c.verb == "C")[1] / steps_per_mm
         x, y = x + dx, y + dy
-    return out
 
 
 class JobProgress:
     """A running job's share of the drawing done and time left, from the
     commands the board has started (the bridge's feedback)."""
 
-    def __init__(self, lengths: Sequence[float], seconds: Sequence[float]) -> None:
-        self.lengths, self.seconds = list(lengths), list(seconds)
+    def __init__(self, lengths: Iterable[float], seconds: Iterable[float]) -> None:
+        # Plain doubles, not float objects: 32 bytes a command in all for a job of any size.
+        self.lengths, self.seconds = array("d", lengths), array("d", seconds)
         # Sums up to each command, so that an update costs the same for any job size.
-        self._length_before = [0.0, *itertools.accumulate(self.lengths)]
-        self._seconds_before = [0.0, *itertools.accumulate(self.seconds)]
+        self._length_before = array("d", [0.0])
+        self._length_before.extend(itertools.accumulate(self.lengths))
+        self._seconds_before = array("d", [0.0])
+        self._seconds_before.extend(itertools.accumulate(self.seconds))
         self._running = -1                  # the command the board works on (-1: none yet)
         self._started_at = 0.0              # when it was first seen running
+
+    @classmethod
+    def of_commands(cls, texts: Iterable[str], start: Tuple[int, int], pen_mm: PenMm,
+                    steps_per_mm: float) -> "JobProgress":
+        """The progress model of a job's commands as sent (BoardCommand.text), read once, a command at
+        a time."""
+        for_lengths, for_seconds = itertools.tee(from_text(t) for t in texts)
+        lengths, seconds = array("d"), array("d")
+        for length, second in zip(iter_pen_lengths(for_lengths, start, pen_mm, steps_per_mm),
+                                  iter_command_seconds(for_seconds)):
+            lengths.append(length)
+            seconds.append(second)
+        return cls(lengths, seconds)
 
     @property
     def total_length(self) -> float:

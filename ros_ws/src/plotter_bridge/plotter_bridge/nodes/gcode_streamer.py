@@ -74,10 +74,9 @@ from plotter_bridge.link.follow import (FINISHED, FollowError, FollowTrack, foll
 from plotter_bridge.link.journal import (DONE, INTERRUPTED, RUNNING, Journal, JobRecord, Progress,
                                          default_journal_dir, resume_commands)
 from plotter_bridge.link.protocol import MAX_RATE
-from plotter_bridge.motion.commands import from_text
 from plotter_bridge.motion.compiler import MAX_PROGRAM_BYTES, StreamerConfig, compile_program, compile_texts
 from plotter_bridge.motion.planner import link_baud
-from plotter_bridge.motion.timing import JobPosition, JobProgress, command_seconds, pen_lengths
+from plotter_bridge.motion.timing import JobPosition, JobProgress
 
 from .action_client import ActionClient
 from .jobs import JobQueue, Waker, Worker
@@ -583,9 +582,7 @@ class GCodeStreamer(Node):
 
     def _timing(self, record: JobRecord) -> JobProgress:
         """The job's progress model: the pen's path and the plan's time per command."""
-        commands = [from_text(text) for text in record.commands]
-        lengths = pen_lengths(commands, record.start, self.machine.pen_mm, self.machine.steps_per_mm)
-        return JobProgress(lengths, command_seconds(commands))
+        return JobProgress.of_commands(record.commands, record.start, self.machine.pen_mm, self.machine.steps_per_mm)
 
     def destroy_node(self) -> None:
         self._worker.shutdown()

@@ -34,7 +34,7 @@ import select
 import sys
 import threading
 import time
-from typing import List, Optional, Tuple
+from typing import List, Optional, Sequence, Tuple
 
 from collections import OrderedDict
 from dataclasses import dataclass, field
@@ -70,7 +70,7 @@ STATE_NAMES = {BoardState.IDLE: "IDLE", BoardState.RUNNING: "RUNNING", BoardStat
                BoardState.ALARM: "ALARM", BoardState.DISCONNECTED: "DISCONNECTED",
                BoardState.PEN_CHANGE: "PEN_CHANGE"}
 MAX_COMMAND_LEN = 40            # the firmware accepts 48 characters with N and checksum
-MAX_JOB_COMMANDS = 1_000_000
+MAX_JOB_COMMANDS = 4_000_000   # a 64 MB program of short lines, with its pen commands
 IO_SWITCH_INTERVAL = 0.0002     # s; see main()
 
 
@@ -87,7 +87,7 @@ def validate_commands(commands: List[str]) -> Optional[str]:
     return None
 
 
-def validate_goal(commands: List[str], lines: List[int], pen_changes: List[str] = ()) -> Optional[str]:
+def validate_goal(commands: Sequence[str], lines: Sequence[int], pen_changes: Sequence[str] = ()) -> Optional[str]:
     why = validate_commands(commands)
     if why is None and lines and len(lines) != len(commands):
         why = "lines and commands differ in length"
@@ -327,7 +327,7 @@ class SerialBridge(Node):
 
     # --- action: stream a job ------------------------------------------------
     def _on_goal(self, goal) -> GoalResponse:
-        why = validate_goal(list(goal.commands), list(goal.lines), list(goal.pen_changes))
+        why = validate_goal(goal.commands, goal.lines, goal.pen_changes)   # as they came: a big job is not copied
         if why is None and not self._reserve():
             why = "another job is running, or the homing cycle (the board takes one job at a time)"
         if why:
@@ -352,7 +352,7 @@ class SerialBridge(Node):
         its end (the feedback timer completes `done`), holding no executor
         thread meanwhile."""
         req = goal_handle.request
-        lines = list(req.lines) or [0] * len(req.commands)
+        lines = req.lines if len(req.lines) else [0] * len(req.commands)
         result = StreamCommands.Result()
         job_id = self._job_id(goal_handle)
         try:
@@ -360,7 +360,7 @@ class SerialBridge(Node):
             why = self.machine.refuses(req.machine)
             if why is None:
                 try:
-                    job = self.session.start_job(list(req.commands), lines)
+                    job = self.session.start_job(req.commands, lines)
                 except RuntimeError as exc:       # the last job has not let go of the board yet
                     why = str(exc)
             if why is not None:
