@@ -94,6 +94,7 @@ def decimate(points: Callable[[], Iterable[PathPoint]], limit: int = MAX_PLANNED
             last = p
     if len(kept) <= limit:
         return kept
+
     def change(k: int) -> bool:          # the pen goes down or up here, or at the next point
         return (k > 0 and kept[k].pen_down != kept[k - 1].pen_down) or \
             (k + 1 < len(kept) and kept[k + 1].pen_down != kept[k].pen_down)
