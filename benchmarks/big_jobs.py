@@ -1,9 +1,14 @@
 #!/usr/bin/env python3
 """Big drawings: `plotter check` beside LinuxCNC's rs274 on the same files, wall time and peak
 resident memory of each process, for random walks of 10k, 100k and 1M lines
-(benchmarks/big_drawing.py).
+(benchmarks/big_drawing.py); then each drawing sent with `plotter stream` to the node graph on
+the mock board (each node its own process, as `ros2 run` starts them): the time from the command
+to the pen's first move, the peak resident memory of each process by then, and the bytes of the
+two messages that carry the job (run_program's goal, the program; stream_commands', its board
+commands), as DDS serializes them.
 
-    bash scripts/setup.sh && .venv/bin/python benchmarks/big_jobs.py [--sizes 10000 100000 1000000]
+    bash scripts/setup.sh && source ros_ws/install/setup.bash && \
+        .venv/bin/python benchmarks/big_jobs.py [--sizes 10000 100000 1000000] [--no-graph]
 
 rs274 is fetched as tests/test_gcode_oracle.py does (Debian's linuxcnc-uspace, cached in
 ~/.cache/plotter-rs274); without it its columns say why.  Each figure is one run of its own
@@ -18,6 +23,7 @@ import shutil
 import subprocess
 import sys
 import tempfile
+import threading
 import time
 from dataclasses import dataclass
 from pathlib import Path
@@ -67,6 +73,7 @@ def rs274_command():
 def main() -> int:
     p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     p.add_argument("--sizes", type=int, nargs="+", default=[10_000, 100_000, 1_000_000])
+    p.add_argument("--no-graph", action="store_true", help="only plotter check beside rs274")
     args = p.parse_args()
     plotter = shutil.which("plotter") or str(Path(sys.executable).parent / "plotter")
     oracle, why = rs274_command()
@@ -91,8 +98,82 @@ def main() -> int:
             else:
                 row += ["-", "-", "-"]
             print("| " + " | ".join(row) + " |", flush=True)
+        if not args.no_graph:
+            print("\n| lines | first step s | peak MB: mock_board | serial_bridge | gcode_streamer | plotter stream "
+                  "| run_program goal MB | stream_commands goal MB |")
+            print("|---|---|---|---|---|---|---|---|")
+            for size in args.sizes:
+                path = Path(tmp) / f"walk{size}.ngc"
+                row = graph_row(path, Path(tmp) / f"graph{size}", plotter)
+                print("| " + " | ".join([f"{size}", *row]) + " |", flush=True)
+        for path in Path(tmp).glob("walk*.ngc"):
             path.unlink()
     return 0
+
+
+def _peak_mb(pid: int) -> float:
+    """The process's own peak resident memory so far (VmHWM), MB."""
+    with open(f"/proc/{pid}/status") as f:
+        for line in f:
+            if line.startswith("VmHWM:"):
+                return int(line.split()[1]) / 1024.0
+    return float("nan")
+
+
+def message_mb(path: Path) -> List[str]:
+    """Serialized sizes of the goals that carry the job: the program, and its board commands."""
+    from rclpy.serialization import serialize_message
+    from plotter_interfaces.action import RunProgram, StreamCommands
+    from plotter_bridge.motion.compiler import StreamerConfig, compile_texts
+    text = path.read_text()
+    run = len(serialize_message(RunProgram.Goal(program=text, name=path.name)))
+    job = compile_texts(text, StreamerConfig())
+    goal = StreamCommands.Goal()
+    goal.commands, goal.lines = job.texts, job.lines
+    return [f"{run / 1e6:.1f}", f"{len(serialize_message(goal)) / 1e6:.1f}"]
+
+
+def graph_row(path: Path, workdir: Path, plotter: str) -> List[str]:
+    """`plotter stream FILE` on a running graph: seconds to the pen's first move, each process's
+    peak memory by then; canceled with Ctrl-C as a user would."""
+    import signal
+    from node_processes import PlotterGraph, new_domain, wait_until
+    from ros_graph import Probe
+    from geometry_msgs.msg import PointStamped
+    workdir.mkdir()
+    domain = new_domain()
+    graph = PlotterGraph(domain, workdir)
+    probe = Probe(domain)
+    from plotter_bridge.nodes.qos import latched
+    from plotter_interfaces.msg import BoardState
+    moved, idle = threading.Event(), threading.Event()
+    probe.node.create_subscription(PointStamped, "position",
+                                   lambda m: moved.set() if abs(m.point.x) + abs(m.point.y) > 0 else None, 10)
+    probe.node.create_subscription(BoardState, "state",
+                                   lambda m: idle.set() if m.state == BoardState.IDLE else None, latched())
+    env = dict(os.environ, ROS_DOMAIN_ID=str(domain))
+    try:
+        wait_until(idle.is_set, 120, "the board idle")
+        from plotter_interfaces.action import RunProgram
+        if not probe.action_client(RunProgram, "run_program").wait_for_server(timeout_sec=120):
+            raise RuntimeError("gcode_streamer's run_program does not answer")
+        t0 = time.monotonic()
+        cli = subprocess.Popen([plotter, "stream", str(path)], env=env, stdout=subprocess.DEVNULL,
+                               stderr=subprocess.PIPE, text=True)
+        while not moved.wait(0.5) and cli.poll() is None and time.monotonic() - t0 < 1800:
+            pass
+        first = moved.is_set()
+        seconds = time.monotonic() - t0
+        if not first:
+            print(f"{path.name}: no step: {cli.stderr.read() if cli.poll() is not None else 'still waiting'}",
+                  file=sys.stderr)
+        peaks = [_peak_mb(p.proc.pid) for p in (graph.board, graph.bridge, graph.streamer)] + [_peak_mb(cli.pid)]
+        cli.send_signal(signal.SIGINT)
+        cli.wait(120)
+    finally:
+        probe.close()
+        graph.close()
+    return [f"{seconds:.1f}" if first else "none in 30 min", *[f"{m:.0f}" for m in peaks], *message_mb(path)]
 
 
 if __name__ == "__main__":
