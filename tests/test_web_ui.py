@@ -443,7 +443,7 @@ def test_the_page_picks_one_of_several_plotters_in_the_domain(page, tmp_path):
         picker = page.driver.find_element("id", "plotter")
         wait_until(lambda: picker.is_displayed() and len(Select(picker).options) == 2, 30, "the picker")
         assert [o.text for o in Select(picker).options] == ["/plotter", "/second"]
-        first_steps = len(read_trace(page.trace))
+        first_steps, first_x = len(read_trace(page.trace)), text(page.driver, "x")
         Select(picker).select_by_visible_text("/second")
         wait_until(lambda: "now driving the plotter in /second" in text(page.driver, "message"), 15, "the pick")
         wait_until(lambda: text(page.driver, "state") == "IDLE", 60, "the second plotter's state")
@@ -458,9 +458,9 @@ def test_the_page_picks_one_of_several_plotters_in_the_domain(page, tmp_path):
         wait_until(lambda: text(page.driver, "message") == "jog: done", 30, "the jog's end")
         Select(picker).select_by_visible_text("/plotter")
         wait_until(lambda: "now driving the plotter in /plotter" in text(page.driver, "message"), 15, "back")
-        # back on the first: its own pen, not the second's
-        wait_until(lambda: text(page.driver, "x") == "0.000" and text(page.driver, "state") == "IDLE", 15,
-                   "the first plotter's pen at X0")
+        # back on the first: its own pen, where it was, not the second's
+        wait_until(lambda: text(page.driver, "x") == first_x and text(page.driver, "state") == "IDLE", 15,
+                   f"the first plotter's pen at X{first_x}")
     finally:
         codes = second.close()
     assert all(c == 0 for c in codes), codes

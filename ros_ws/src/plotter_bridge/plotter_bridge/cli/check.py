@@ -12,21 +12,26 @@ from __future__ import annotations
 import argparse
 import json
 import math
+import shutil
 import sys
-from typing import Dict, List, Sequence, TextIO
+import tempfile
+from dataclasses import dataclass
+from typing import Dict, Iterable, Iterator, List, Sequence, TextIO
 
 from plotter_bridge.gcode.dialect import (DEFAULT_MARLIN_PEN_DOWN, DEFAULT_MARLIN_PEN_UP, DEFAULT_PEN_UP_Z,
                                           DIALECTS, LINUXCNC, GCodeOptions)
 from plotter_bridge.gcode.geometry import arc_length
 from plotter_bridge.gcode.limits import WorkArea
-from plotter_bridge.gcode.parser import (DEFAULT_RAPID_RATE, GCodeError, Item, Move, check_program,
-                                         decode_program)
+from plotter_bridge.gcode.parser import DEFAULT_RAPID_RATE, GCodeError, Item, Move, Reading, decode_program, read_items
+from plotter_bridge.gcode.limits import within_limits
 from plotter_bridge.gcode.steps import round_step, to_steps
 from plotter_bridge.gcode.pens import change_label
 from plotter_bridge.gcode.types import GCodeErrors, Dwell, Note, Pause, PenChange, ToolChange, ZMove, all_errors
 from plotter_bridge.motion.kinematics import DEFAULT_Z_STEPS_PER_MM
 
 from .command import EXIT_BAD_PROGRAM, EXIT_OK, Command
+
+SPOOL_BYTES = 8 * 1024 * 1024     # of the table held in memory; the rest waits in a temporary file
 
 
 def dialect_args(p: argparse.ArgumentParser) -> None:
@@ -120,63 +125,96 @@ def _length(move: Move) -> float:
     return math.hypot(move.x - move.sx, move.y - move.sy)
 
 
-def _print_table(items: List[Item], steps_per_mm: float, out: TextIO,
-                 z_steps_per_mm: float = 1.0) -> None:
-    out.write(f"{'line':>5} {'N':>5}  {'move':<10} {'pen':<4} {'feed':>8} "
-              f"{'X':>10} {'Y':>10} {'centre X':>10} {'centre Y':>10}  steps\n")
-    for item in items:
+TABLE_HEADER = (f"{'line':>5} {'N':>5}  {'move':<10} {'pen':<4} {'feed':>8} "
+                f"{'X':>10} {'Y':>10} {'centre X':>10} {'centre Y':>10}  steps\n")
+
+
+def _table_row(item: Item, steps_per_mm: float, z_steps_per_mm: float = 1.0) -> str:
+    """One item's row of the table (TABLE_HEADER), or "" for an item it does not show."""
+    if isinstance(item, Move):
+        kind = "rapid" if item.rapid else item.kind
+        if item.kind == "arc":
+            kind = ("circle " if item.is_full_circle else "arc ") + \
+                   ("cw" if item.cw else "ccw")
+        centre = (f"{item.cx:10.4f} {item.cy:10.4f}" if item.kind == "arc"
+                  else " " * 21)
+        # an arc of more than 180 degrees is sent as two pieces
+        pieces = []
+        for step in to_steps([item], steps_per_mm):
+            text = f"{step.x},{step.y}"
+            if step.kind == "arc":
+                text += f" c{step.i:+d},{step.j:+d}"
+            pieces.append(text)
+        n = "" if item.n is None else str(item.n)
+        return (f"{item.line:>5} {n:>5}  {kind:<10} {item.pen:<4} "
+                f"{item.feed:8.1f} {item.x:10.4f} {item.y:10.4f} {centre}  "
+                f"{' | '.join(pieces)}\n")
+    if isinstance(item, ZMove):
+        kind = "rapid z" if item.rapid else "z"
+        return (f"{item.line:>5} {'':>5}  {kind:<10} {'':<4} {item.feed:8.1f} "
+                f"{'Z ' + format(item.z, '.4f'):>21} {'':21}  z{round_step(item.z * z_steps_per_mm)}\n")
+    if isinstance(item, Dwell):
+        return f"{item.line:>5} {'':>5}  dwell {item.seconds:g} s\n"
+    if isinstance(item, PenChange):
+        return f"{item.line:>5} {'':>5}  pen {item.pen}\n"
+    if isinstance(item, Pause):
+        return f"{item.line:>5} {'':>5}  pause (M0/M1)\n"
+    if isinstance(item, ToolChange) and item.wait:
+        return f"{item.line:>5} {'':>5}  pen change (M6): {change_label(item)}\n"
+    return ""
+
+
+@dataclass
+class Summary:
+    """The check's last line, added up an item at a time."""
+    moves: int = 0
+    rapids: int = 0
+    arcs: int = 0
+    z_moves: int = 0
+    changes: int = 0
+    drawn: float = 0.0
+    travel: float = 0.0
+    move_minutes: float = 0.0
+    z_minutes: float = 0.0
+    dwell: float = 0.0
+    x_min: float = 0.0          # the end points, and the origin
+    x_max: float = 0.0
+    y_min: float = 0.0
+    y_max: float = 0.0
+
+    def add(self, item: Item) -> None:
         if isinstance(item, Move):
-            kind = "rapid" if item.rapid else item.kind
-            if item.kind == "arc":
-                kind = ("circle " if item.is_full_circle else "arc ") + \
-                       ("cw" if item.cw else "ccw")
-            centre = (f"{item.cx:10.4f} {item.cy:10.4f}" if item.kind == "arc"
-                      else " " * 21)
-            # an arc of more than 180 degrees is sent as two pieces
-            pieces = []
-            for step in to_steps([item], steps_per_mm):
-                text = f"{step.x},{step.y}"
-                if step.kind == "arc":
-                    text += f" c{step.i:+d},{step.j:+d}"
-                pieces.append(text)
-            n = "" if item.n is None else str(item.n)
-            out.write(f"{item.line:>5} {n:>5}  {kind:<10} {item.pen:<4} "
-                      f"{item.feed:8.1f} {item.x:10.4f} {item.y:10.4f} {centre}  "
-                      f"{' | '.join(pieces)}\n")
+            length = _length(item)
+            self.moves += 1
+            self.rapids += item.rapid
+            self.arcs += item.kind == "arc"
+            if item.pen == "down" and not item.rapid:
+                self.drawn += length
+            else:
+                self.travel += length
+            self.move_minutes += length / item.feed
+            self.x_min, self.x_max = min(self.x_min, item.x), max(self.x_max, item.x)
+            self.y_min, self.y_max = min(self.y_min, item.y), max(self.y_max, item.y)
         elif isinstance(item, ZMove):
-            kind = "rapid z" if item.rapid else "z"
-            out.write(f"{item.line:>5} {'':>5}  {kind:<10} {'':<4} {item.feed:8.1f} "
-                      f"{'Z ' + format(item.z, '.4f'):>21} {'':21}  z{round_step(item.z * z_steps_per_mm)}\n")
+            self.z_moves += 1
+            self.z_minutes += abs(item.z - item.sz) / item.feed
         elif isinstance(item, Dwell):
-            out.write(f"{item.line:>5} {'':>5}  dwell {item.seconds:g} s\n")
-        elif isinstance(item, PenChange):
-            out.write(f"{item.line:>5} {'':>5}  pen {item.pen}\n")
-        elif isinstance(item, Pause):
-            out.write(f"{item.line:>5} {'':>5}  pause (M0/M1)\n")
+            self.dwell += item.seconds
         elif isinstance(item, ToolChange) and item.wait:
-            out.write(f"{item.line:>5} {'':>5}  pen change (M6): {change_label(item)}\n")
+            self.changes += 1
 
-
-def _summary(path: str, items: List[Item], notes: int = 0) -> str:
-    moves = [i for i in items if isinstance(i, Move)]
-    drawn = sum(_length(m) for m in moves if m.pen == "down" and not m.rapid)
-    travel = sum(_length(m) for m in moves if m.pen == "up" or m.rapid)
-    z_moves = [i for i in items if isinstance(i, ZMove)]
-    minutes = sum(_length(m) / m.feed for m in moves) + sum(abs(m.z - m.sz) / m.feed for m in z_moves)
-    seconds = 60.0 * minutes + sum(i.seconds for i in items if isinstance(i, Dwell))
-    xs = [0.0] + [m.x for m in moves]
-    ys = [0.0] + [m.y for m in moves]
-    arcs = sum(1 for m in moves if m.kind == "arc")
-    rapids = sum(1 for m in moves if m.rapid)
-    changes = sum(1 for i in items if isinstance(i, ToolChange) and i.wait)
-    return (f"{path}: OK, {len(moves)} moves ({rapids} rapid, "
-            f"{len(moves) - rapids - arcs} lines, {arcs} arcs"
-            + (f", {len(z_moves)} Z moves" if z_moves else "")
-            + (f", {changes} pen change{'s' if changes != 1 else ''}" if changes else "") + f"); drawn {drawn:.1f} mm, "
-            f"travel {travel:.1f} mm, about {seconds:.0f} s at the programmed feeds; "
-            f"end points within X {min(xs):.2f}..{max(xs):.2f}, "
-            f"Y {min(ys):.2f}..{max(ys):.2f} mm"
-            + (f"; {notes} note{'s' if notes != 1 else ''}: lines accepted without effect" if notes else ""))
+    def line(self, path: str, notes: int = 0) -> str:
+        seconds = 60.0 * (self.move_minutes + self.z_minutes) + self.dwell
+        changes = self.changes
+        return (f"{path}: OK, {self.moves} moves ({self.rapids} rapid, "
+                f"{self.moves - self.rapids - self.arcs} lines, {self.arcs} arcs"
+                + (f", {self.z_moves} Z moves" if self.z_moves else "")
+                + (f", {changes} pen change{'s' if changes != 1 else ''}" if changes else "")
+                + f"); drawn {self.drawn:.1f} mm, "
+                f"travel {self.travel:.1f} mm, about {seconds:.0f} s at the programmed feeds; "
+                f"end points within X {self.x_min:.2f}..{self.x_max:.2f}, "
+                f"Y {self.y_min:.2f}..{self.y_max:.2f} mm"
+                + (f"; {notes} note{'s' if notes != 1 else ''}: lines accepted without effect" if notes else ""))
 
 
 def listing(name: str, errors: Sequence[GCodeError], notes: Sequence[Note]) -> List[str]:
@@ -239,39 +277,65 @@ def run_check(args: argparse.Namespace, out: TextIO = None, err: TextIO = None) 
         return EXIT_BAD_PROGRAM
     area = None if args.no_limits else WorkArea(x_min, x_max, y_min, y_max, args.z_min, args.z_max)
     try:
-        program = check_program(decode_program(data), area, rapid_rate=args.rapid_rate, z_axis=args.z_axis,
-                                options=options)
-    except GCodeError as exc:
-        write_refusal(args.file, exc, err)
-        if args.json:
-            notes = exc.notes if isinstance(exc, GCodeErrors) else []
-            for line in sorted([*notes, *all_errors(exc)], key=lambda e: e.line):
-                out.write(json.dumps(_message_record(line)) + "\n")
+        fit = None
+        if args.fit_arcs is not None:
+            from plotter_bridge.motion.compiler import board_fit
+            fit = board_fit(args.fit_arcs, area, args.steps_per_mm)
+    except ValueError as exc:
+        err.write(f"--fit-arcs: {exc}\n")
         return EXIT_BAD_PROGRAM
-    items = program.items
-    fitted = ""
-    if args.fit_arcs is not None:
-        from plotter_bridge.gcode.arcfit import fit_arcs
-        from plotter_bridge.motion.compiler import board_fit
+    # Read, checked and written a line at a time: the table waits in a spool (on disk past a few MB)
+    # until the whole program has passed, so that a refused one prints nothing of it.
+    reading, outside, before = Reading(), [], [0]
+    items = read_items(decode_program(data), reading, rapid_rate=args.rapid_rate, z_axis=args.z_axis,
+                       options=options)
+    if area is not None:
+        items = within_limits(items, area, outside)
+    if fit is not None:
+        from plotter_bridge.gcode.arcfit import iter_fit_arcs
+
+        def counted(items: Iterable[Item]) -> Iterator[Item]:
+            for item in items:
+                before[0] += isinstance(item, Move)
+                yield item
+        items = iter_fit_arcs(counted(items), fit)
+    summary = Summary()
+    noted = 0
+    with tempfile.SpooledTemporaryFile(max_size=SPOOL_BYTES, mode="w+") as spool:
+        if not args.json:
+            spool.write(TABLE_HEADER)
+        for item in items:
+            summary.add(item)
+            if args.json:
+                if not isinstance(item, (Move, ZMove)):
+                    continue
+                while noted < len(reading.notes) and reading.notes[noted].line <= item.line:
+                    spool.write(json.dumps(_message_record(reading.notes[noted])) + "\n")
+                    noted += 1
+                spool.write(json.dumps(move_record(item) if isinstance(item, Move) else z_record(item)) + "\n")
+            else:
+                spool.write(_table_row(item, args.steps_per_mm, args.z_steps_per_mm))
         try:
-            before = sum(isinstance(i, Move) for i in items)
-            items = fit_arcs(items, board_fit(args.fit_arcs, area, args.steps_per_mm))
-        except ValueError as exc:
-            err.write(f"--fit-arcs: {exc}\n")
+            reading.raise_errors(outside)
+        except GCodeError as exc:
+            write_refusal(args.file, exc, err)
+            if args.json:
+                notes = exc.notes if isinstance(exc, GCodeErrors) else []
+                for line in sorted([*notes, *all_errors(exc)], key=lambda e: e.line):
+                    out.write(json.dumps(_message_record(line)) + "\n")
             return EXIT_BAD_PROGRAM
-        fitted = f"; with arcs fitted within {args.fit_arcs:g} mm, {before} moves became " \
-                 f"{sum(isinstance(i, Move) for i in items)}"
-    for text in listing(args.file, [], program.notes):
-        err.write(text + "\n")
+        for text in listing(args.file, [], reading.notes):
+            err.write(text + "\n")
+        if args.json:
+            for note in reading.notes[noted:]:
+                spool.write(json.dumps(_message_record(note)) + "\n")
+        spool.seek(0)
+        shutil.copyfileobj(spool, out)
     if args.json:
-        records = [(item.line, 1, move_record(item) if isinstance(item, Move) else z_record(item))
-                   for item in items if isinstance(item, (Move, ZMove))]
-        records += [(note.line, 0, _message_record(note)) for note in program.notes]
-        for _line, _order, record in sorted(records, key=lambda r: (r[0], r[1])):
-            out.write(json.dumps(record) + "\n")
         return EXIT_OK
-    _print_table(items, args.steps_per_mm, out, args.z_steps_per_mm)
-    out.write(_summary(args.file, items, len(program.notes)) + fitted + "\n")
+    fitted = "" if fit is None else (f"; with arcs fitted within {args.fit_arcs:g} mm, {before[0]} moves became "
+                                     f"{summary.moves}")
+    out.write(summary.line(args.file, len(reading.notes)) + fitted + "\n")
     if args.svg or args.png:
         return write_plan(args, decode_program(data), area, options, out, err)
     return EXIT_OK
