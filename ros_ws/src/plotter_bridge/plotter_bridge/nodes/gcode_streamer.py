@@ -445,10 +445,16 @@ class GCodeStreamer(Node):
         """run_program's feedback from the bridge's: the line, the share done and the time left."""
         if goal_handle is None:
             return None
-        timing = self._timing(record)
+        # A million commands take seconds to model: the job goes out meanwhile, and its feedback
+        # starts once the model is there.
+        model: List[JobProgress] = []
+        threading.Thread(target=lambda: model.append(self._timing(record)), name="job timing", daemon=True).start()
         total_lines = max(record.lines, default=0)
 
         def publish(fb) -> None:
+            if not model:
+                return
+            timing = model[0]
             out = RunProgram.Feedback()
             out.current_line = fb.current_line
             out.total_lines = total_lines

@@ -30,6 +30,7 @@ with the reason (see link/board_session.py).
 """
 from __future__ import annotations
 
+import re
 import select
 import sys
 import threading
@@ -70,6 +71,7 @@ STATE_NAMES = {BoardState.IDLE: "IDLE", BoardState.RUNNING: "RUNNING", BoardStat
                BoardState.ALARM: "ALARM", BoardState.DISCONNECTED: "DISCONNECTED",
                BoardState.PEN_CHANGE: "PEN_CHANGE"}
 MAX_COMMAND_LEN = 40            # the firmware accepts 48 characters with N and checksum
+_WIRE_CONTROL = re.compile(r"[*?!~N$]")   # the line framing's and the real-time bytes (PROTOCOL.md)
 MAX_JOB_COMMANDS = 4_000_000   # a 64 MB program of short lines, with its pen commands
 IO_SWITCH_INTERVAL = 0.0002     # s; see main()
 
@@ -82,7 +84,7 @@ def validate_commands(commands: List[str]) -> Optional[str]:
         return f"job too large: {len(commands)} commands (limit {MAX_JOB_COMMANDS})"
     for k, c in enumerate(commands):
         if not c or len(c) > MAX_COMMAND_LEN or not c.isascii() or not c.isprintable() \
-                or any(ch in c for ch in "*?!~N$"):
+                or _WIRE_CONTROL.search(c):
             return f"command {k + 1} is not a board motion command: {c[:60]!r}"
     return None
 
