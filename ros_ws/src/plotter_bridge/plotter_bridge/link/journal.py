@@ -14,14 +14,16 @@ Pure functions and a small file store; no ROS.
 """
 from __future__ import annotations
 
+import itertools
 import json
 import os
 import re
 import time
-from dataclasses import asdict, dataclass, field
+from dataclasses import asdict, dataclass, field, replace
 from pathlib import Path
 from typing import List, Optional, Sequence, Tuple
 
+from .command_store import CommandStore
 from .protocol import MAX_DELTA, MAX_RATE, MIN_RATE
 
 RUNNING, DONE, INTERRUPTED = "running", "done", "interrupted"
@@ -37,7 +39,7 @@ def default_journal_dir() -> Path:
 class JobRecord:
     job_id: str
     name: str
-    commands: List[str]
+    commands: Sequence[str]          # a list, or a compiled job's CommandStore
     lines: Sequence[int]             # a list, or an array of a compiled job's (motion/compiler.py)
     start: Tuple[int, int]            # pen position in steps when the job began
     start_pen: bool = False
@@ -82,8 +84,11 @@ class Journal:
         os.replace(tmp, path)
 
     def create(self, record: JobRecord) -> None:
-        data = asdict(record)
+        commands = record.commands
+        data = asdict(replace(record, commands=[]))
         data["lines"] = list(record.lines)           # an array of a compiled job's lines, as JSON
+        # a compiled job's commands as their one text (command_store.py), a few as a list
+        data["commands"] = commands.text if isinstance(commands, CommandStore) else list(commands)
         self._write(self._path(record.job_id, "job"), data)
         self.update(record.job_id, Progress())
 
@@ -103,6 +108,8 @@ class Journal:
         except (OSError, ValueError) as exc:
             raise KeyError(f"job {job_id} not in the journal {self.directory}: {exc}") from None
         rec["start"] = tuple(rec["start"])
+        if isinstance(rec["commands"], str):
+            rec["commands"] = CommandStore.from_text(rec["commands"])
         return JobRecord(**rec), Progress(**prog)
 
     def jobs(self) -> List[Tuple[str, Progress, float]]:
@@ -212,7 +219,7 @@ def travel(dx: int, dy: int, rate: int) -> List[str]:
 
 
 def resume_commands(record: JobRecord, completed: int, pen_at: Tuple[int, int],
-                    pen_down: bool, z_at: Optional[int] = None) -> Tuple[List[str], List[int]]:
+                    pen_down: bool, z_at: Optional[int] = None) -> Tuple[Sequence[str], List[int]]:
     """Board commands that finish the job from command `completed` on, for a
     pen now at `pen_at` (steps, down or not) and a Z axis at `z_at` (steps;
     None: no Z axis)."""
@@ -238,5 +245,6 @@ def resume_commands(record: JobRecord, completed: int, pen_at: Tuple[int, int],
         head += z_travel(dz, rate)
         if pen != pen_down:
             head.append("P 1" if pen else "P 0")
-    commands = head + record.commands[completed:]
+    rest = record.commands[completed:]
+    commands = CommandStore(itertools.chain(head, rest)) if isinstance(rest, CommandStore) else head + list(rest)
     return commands, [line] * len(head) + list(record.lines[completed:])

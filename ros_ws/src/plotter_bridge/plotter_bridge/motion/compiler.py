@@ -12,6 +12,7 @@ from typing import Callable, Iterable, Iterator, List, Optional, Sequence, Tuple
 
 from .commands import (FIRMWARE_ACCEL, MAX_ARC_RATE, MAX_RATE, BoardCommand, cartesian_motion, iter_commands,
                        z_axis_motion)
+from plotter_bridge.link.command_store import CommandStore
 from plotter_bridge.link.protocol import DEFAULT_BAUD, PEN_CHANGE
 from plotter_bridge.gcode.dialect import (DEFAULT_MARLIN_PEN_DOWN, DEFAULT_MARLIN_PEN_UP, DEFAULT_PEN_UP_Z,
                                           LINUXCNC, GCodeOptions)
@@ -111,9 +112,9 @@ def compile_program(text: str, config: StreamerConfig,
 
 @dataclass
 class CompiledJob:
-    """A program's board commands as few objects as they can be: a million-line job is a list of
-    short strings and an array of their source lines, not a million command objects."""
-    texts: List[str]                   # each command as sent (BoardCommand.text)
+    """A program's board commands as few objects as they can be: a million-line job is one text and
+    an array of their source lines, not a million command objects."""
+    texts: CommandStore                # each command as sent (BoardCommand.text)
     lines: "array[int]"                # the program's line each comes from
     pens: List[str]                    # what each pen change ("M6 k") tells the operator, in order
     z_line: Optional[int] = None       # the first Z command's line (None: no Z axis needed)
@@ -124,18 +125,19 @@ def compile_texts(text: Union[str, bytes], config: StreamerConfig, start_steps: 
     """compile_program, kept as CompiledJob: each command is planned and formatted as the program is
     read, so that no stage holds more of the program than its own window (iter_plan, iter_fit_arcs);
     the program is still refused whole, before anything of it is sent."""
-    texts: List[str] = []
     lines = array("I")              # uint32, as StreamCommands.lines: the goal takes it as it is
     pens: List[str] = []
-    z_line: Optional[int] = None
-    for cmd in compile_stream(text, config, start_steps, start_z_steps):
-        texts.append(cmd.text)
-        lines.append(cmd.line)
-        if cmd.verb == PEN_CHANGE:
-            pens.append(cmd.note)
-        elif z_line is None and cmd.verb == "Z":
-            z_line = cmd.line
-    return CompiledJob(texts, lines, pens, z_line)
+    z_line: List[int] = []
+
+    def texts() -> Iterator[str]:
+        for cmd in compile_stream(text, config, start_steps, start_z_steps):
+            lines.append(cmd.line)
+            if cmd.verb == PEN_CHANGE:
+                pens.append(cmd.note)
+            elif not z_line and cmd.verb == "Z":
+                z_line.append(cmd.line)
+            yield cmd.text
+    return CompiledJob(CommandStore(texts()), lines, pens, z_line[0] if z_line else None)
 
 
 def compile_stream(text: Union[str, bytes], config: StreamerConfig, start_steps: Tuple[int, int] = (0, 0),

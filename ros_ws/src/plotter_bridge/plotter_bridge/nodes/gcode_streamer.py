@@ -73,6 +73,7 @@ from plotter_bridge.link.follow import (FINISHED, FollowError, FollowTrack, foll
                                         follow_state_name, goal_or_defaults)
 from plotter_bridge.link.journal import (DONE, INTERRUPTED, RUNNING, Journal, JobRecord, Progress,
                                          default_journal_dir, resume_commands)
+from plotter_bridge.link.command_store import CommandStore
 from plotter_bridge.link.protocol import MAX_RATE
 from plotter_bridge.motion.compiler import MAX_PROGRAM_BYTES, StreamerConfig, compile_program, compile_texts
 from plotter_bridge.motion.planner import link_baud
@@ -518,7 +519,10 @@ class GCodeStreamer(Node):
             self.journal.update(job_id, Progress(0, INTERRUPTED, "serial bridge not available"))
             return Outcome(False, "serial bridge not available (stream_commands)", 0, job_id)
         goal = StreamCommands.Goal()
-        goal.commands = record.commands
+        if isinstance(record.commands, CommandStore):
+            goal.command_text = record.commands.text
+        else:
+            goal.commands = list(record.commands)
         goal.lines = record.lines
         goal.machine = record.machine
         goal.pen_changes = record.pens

@@ -53,6 +53,7 @@ from plotter_interfaces.srv import JobStatus
 
 from plotter_bridge.link.board_session import (CONNECTING, DISCONNECTED, QUEUE_SIZE, BoardSession, Job, JobResult,
                                                SessionConfig)
+from plotter_bridge.link.command_store import goal_commands
 from plotter_bridge.link.follow import follow_state_name
 from plotter_bridge.link.homing import HomingConfig, home, homing_config
 from plotter_bridge.gcode.pens import label_colour
@@ -329,7 +330,10 @@ class SerialBridge(Node):
 
     # --- action: stream a job ------------------------------------------------
     def _on_goal(self, goal) -> GoalResponse:
-        why = validate_goal(goal.commands, goal.lines, goal.pen_changes)   # as they came: a big job is not copied
+        try:
+            why = validate_goal(goal_commands(goal), goal.lines, goal.pen_changes)
+        except ValueError as exc:
+            why = str(exc)
         if why is None and not self._reserve():
             why = "another job is running, or the homing cycle (the board takes one job at a time)"
         if why:
@@ -354,7 +358,8 @@ class SerialBridge(Node):
         its end (the feedback timer completes `done`), holding no executor
         thread meanwhile."""
         req = goal_handle.request
-        lines = req.lines if len(req.lines) else [0] * len(req.commands)
+        commands = goal_commands(req)
+        lines = req.lines if len(req.lines) else [0] * len(commands)
         result = StreamCommands.Result()
         job_id = self._job_id(goal_handle)
         try:
@@ -362,7 +367,7 @@ class SerialBridge(Node):
             why = self.machine.refuses(req.machine)
             if why is None:
                 try:
-                    job = self.session.start_job(req.commands, lines)
+                    job = self.session.start_job(commands, lines)
                 except RuntimeError as exc:       # the last job has not let go of the board yet
                     why = str(exc)
             if why is not None:

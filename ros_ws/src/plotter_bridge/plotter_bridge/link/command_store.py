@@ -1,0 +1,114 @@
+"""A job's board commands held as one text, not as a string object each.
+
+A board command is 5 to 40 ASCII characters ("L 77 -92 5635 1872"); as a
+Python str each costs about 70 bytes with its place in a list, so a
+million-command job would hold 70 MB in the streamer and as much again in
+the bridge.  Kept as one text with the offset of each command, it costs the
+characters and 4 bytes: what the job itself is.  It reads as a sequence of
+the commands; a slice is a view of the same text.
+"""
+from __future__ import annotations
+
+import io
+from array import array
+from typing import Iterable, Iterator, Sequence, Union, overload
+
+
+class CommandStore(Sequence[str]):
+    """Commands, each without a line end, in the order given."""
+
+    def __init__(self, texts: Iterable[str] = ()) -> None:
+        buf = io.StringIO()
+        ends = array("I")
+        pos = 0
+        for text in texts:
+            if "\n" in text:
+                raise ValueError(f"a board command on more than one line: {text!r}")
+            buf.write(text)
+            buf.write("\n")
+            pos += len(text) + 1
+            ends.append(pos)
+        self._text, self._ends, self._first, self._count = buf.getvalue(), ends, 0, len(ends)
+
+    @classmethod
+    def from_text(cls, text: str) -> "CommandStore":
+        """The commands of `text`, one per line (as `text` gives them)."""
+        store = cls()
+        if text and not text.endswith("\n"):
+            text += "\n"
+        ends = array("I")
+        pos = text.find("\n")
+        while pos >= 0:
+            ends.append(pos + 1)
+            pos = text.find("\n", pos + 1)
+        store._text, store._ends, store._count = text, ends, len(ends)
+        return store
+
+    @property
+    def text(self) -> str:
+        """The commands one per line, each ended by a line end."""
+        start = self._start(0)
+        end = self._ends[self._first + self._count - 1] if self._count else start
+        return self._text[start:end]
+
+    def _start(self, k: int) -> int:
+        i = self._first + k
+        return self._ends[i - 1] if i > 0 else 0
+
+    def __len__(self) -> int:
+        return self._count
+
+    @overload
+    def __getitem__(self, index: int) -> str: ...
+
+    @overload
+    def __getitem__(self, index: slice) -> "CommandStore": ...
+
+    def __getitem__(self, index: Union[int, slice]) -> Union[str, "CommandStore"]:
+        if isinstance(index, slice):
+            start, stop, step = index.indices(self._count)
+            if step != 1:
+                return CommandStore(self[k] for k in range(start, stop, step))
+            view = CommandStore()
+            view._text, view._ends = self._text, self._ends
+            view._first, view._count = self._first + start, max(0, stop - start)
+            return view
+        if index < 0:
+            index += self._count
+        if not 0 <= index < self._count:
+            raise IndexError("command index out of range")
+        return self._text[self._start(index):self._ends[self._first + index] - 1]
+
+    def __iter__(self) -> Iterator[str]:
+        text, ends = self._text, self._ends
+        start = self._start(0)
+        for i in range(self._first, self._first + self._count):
+            end = ends[i]
+            yield text[start:end - 1]
+            start = end
+
+    def __eq__(self, other: object) -> bool:
+        if isinstance(other, CommandStore):
+            return self.text == other.text
+        if isinstance(other, Sequence) and not isinstance(other, str):
+            return len(other) == self._count and all(a == b for a, b in zip(self, other))
+        return NotImplemented
+
+    def __repr__(self) -> str:
+        head = ", ".join(repr(c) for c in self[:3])
+        return f"CommandStore([{head}{', ...' if self._count > 3 else ''}], {self._count} commands)"
+
+
+def as_commands(commands: Sequence[str]) -> CommandStore:
+    """`commands` as a CommandStore (itself if it is one)."""
+    return commands if isinstance(commands, CommandStore) else CommandStore(commands)
+
+
+def goal_commands(goal) -> Sequence[str]:
+    """A StreamCommands goal's commands as they came (a big job is not copied): its list, or its
+    command_text read as a CommandStore; ValueError for a goal that gives both."""
+    if goal.command_text:
+        if goal.commands:
+            raise ValueError("both commands and command_text given: give one")
+        return CommandStore.from_text(goal.command_text)
+    return goal.commands
