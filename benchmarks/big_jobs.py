@@ -17,7 +17,9 @@ process (os.wait4 gives that process's own peak memory); the machine's load is p
 from __future__ import annotations
 
 import argparse
+import math
 import os
+import re
 import platform
 import shutil
 import subprocess
@@ -99,9 +101,9 @@ def main() -> int:
                 row += ["-", "-", "-"]
             print("| " + " | ".join(row) + " |", flush=True)
         if not args.no_graph:
-            print("\n| lines | first step s | peak MB: mock_board | serial_bridge | gcode_streamer | plotter stream "
-                  "| run_program goal MB | stream_commands goal MB |")
-            print("|---|---|---|---|---|---|---|---|")
+            print("\n| lines | first step s | of it after the check s | peak MB: mock_board | serial_bridge "
+                  "| gcode_streamer | plotter stream | run_program goal MB | stream_commands goal MB |")
+            print("|---|---|---|---|---|---|---|---|---|")
             for size in args.sizes:
                 path = Path(tmp) / f"walk{size}.ngc"
                 row = graph_row(path, Path(tmp) / f"graph{size}", plotter)
@@ -129,7 +131,7 @@ def message_mb(path: Path) -> List[str]:
     run = len(serialize_message(RunProgram.Goal(program=text, name=path.name)))
     job = compile_texts(text, StreamerConfig())
     goal = StreamCommands.Goal()
-    goal.commands, goal.lines = job.texts, job.lines
+    goal.command_text, goal.lines = job.texts.text, job.lines       # as the streamer sends a compiled job
     return [f"{run / 1e6:.1f}", f"{len(serialize_message(goal)) / 1e6:.1f}"]
 
 
@@ -147,8 +149,13 @@ def graph_row(path: Path, workdir: Path, plotter: str) -> List[str]:
     from plotter_bridge.nodes.qos import latched
     from plotter_interfaces.msg import BoardState
     moved, idle = threading.Event(), threading.Event()
-    probe.node.create_subscription(PointStamped, "position",
-                                   lambda m: moved.set() if abs(m.point.x) + abs(m.point.y) > 0 else None, 10)
+    first_move: List[float] = []
+
+    def on_position(m) -> None:
+        if not moved.is_set() and abs(m.point.x) + abs(m.point.y) > 0:
+            first_move.append(time.time())
+            moved.set()
+    probe.node.create_subscription(PointStamped, "position", on_position, 10)
     probe.node.create_subscription(BoardState, "state",
                                    lambda m: idle.set() if m.state == BoardState.IDLE else None, latched())
     env = dict(os.environ, ROS_DOMAIN_ID=str(domain))
@@ -168,12 +175,17 @@ def graph_row(path: Path, workdir: Path, plotter: str) -> List[str]:
             print(f"{path.name}: no step: {cli.stderr.read() if cli.poll() is not None else 'still waiting'}",
                   file=sys.stderr)
         peaks = [_peak_mb(p.proc.pid) for p in (graph.board, graph.bridge, graph.streamer)] + [_peak_mb(cli.pid)]
+        # the streamer's log line "checked and planned" carries the wall time of the check's end
+        checked = re.search(r"\[(\d+\.\d+)\] \[[^]]*gcode_streamer\]: [^\n]*checked and planned",
+                            graph.streamer.output())
+        after_check = first_move[0] - float(checked.group(1)) if first and checked else math.nan
         cli.send_signal(signal.SIGINT)
         cli.wait(120)
     finally:
         probe.close()
         graph.close()
-    return [f"{seconds:.1f}" if first else "none in 30 min", *[f"{m:.0f}" for m in peaks], *message_mb(path)]
+    return [f"{seconds:.1f}" if first else "none in 30 min", f"{after_check:.1f}", *[f"{m:.0f}" for m in peaks],
+            *message_mb(path)]
 
 
 if __name__ == "__main__":

@@ -418,10 +418,14 @@ class GCodeStreamer(Node):
         start = (board.x_steps, board.y_steps)
         if resume:
             return self._resume(resume, board, goal_handle)
+        t0 = time.monotonic()
         try:
             job = compile_texts(text, self._job_config(board, dialect), start, board.z_steps)
         except GCodeError as exc:
             return Outcome(False, str(exc))
+        # said for every job: the time to the first step of a big one is mostly this
+        self.get_logger().info(f"{name}: checked and planned, {len(job.texts)} board commands in "
+                               f"{time.monotonic() - t0:.1f} s")
         if not job.texts:
             return Outcome(True, "nothing to do")
         if job.z_line is not None and not board.has_z:
