@@ -134,6 +134,10 @@ def test_plotter_follow_on_the_running_graph_stops_at_the_distance_or_where_the_
     assert r.returncode == 0, r.stdout + r.stderr
     assert r.stdout.startswith("follow: distance after 1600 steps"), r.stdout
     assert len(read_trace(graph.trace)) - before >= 1600
+    # From where the pen stands: no way to the start, and on along the line.
+    x, y = re.search(r"pen at X(\S+) Y(\S+) mm", r.stdout).groups()
+    r = plotter(graph, "follow", "--start", x, y, "--heading", "90", "--distance", "5")
+    assert r.returncode == 0 and r.stdout.startswith("follow: distance after 400 steps"), r.stdout + r.stderr
     # Off the ring nothing is black: lost after --lost mm, and said so with a failure.
     r = plotter(graph, "follow", "--start", "40", "40", "--lost", "4")
     assert r.returncode == 1, r.stdout + r.stderr

@@ -73,6 +73,7 @@ from plotter_bridge.link.follow import (FINISHED, FollowError, FollowTrack, foll
                                         follow_state_name, goal_or_defaults)
 from plotter_bridge.link.journal import (DONE, INTERRUPTED, RUNNING, Journal, JobRecord, Progress,
                                          default_journal_dir, resume_commands)
+from plotter_bridge.gcode.steps import round_step
 from plotter_bridge.link.command_store import CommandStore
 from plotter_bridge.link.protocol import MAX_RATE
 from plotter_bridge.motion.compiler import MAX_PROGRAM_BYTES, StreamerConfig, compile_program, compile_texts
@@ -206,14 +207,15 @@ class GCodeStreamer(Node):
         self._bridge = ActionClient(self, StreamCommands, "stream_commands", callback_group=group)
         self._job_status = self.create_client(JobStatus, "job_status", callback_group=group)
         # Goals are answered one at a time, in the order they come (a mutually
-        # exclusive group), so that the queue keeps their order.
+        # exclusive group), and take their place in the queue as they are accepted.
         in_order = MutuallyExclusiveCallbackGroup()
+        self._places: dict = {}                  # id(goal handle) -> its turn, from acceptance to its execute
         self._server = ActionServer(self, RunProgram, "run_program", self._execute,
                                     goal_callback=self._on_goal, cancel_callback=self._on_cancel,
-                                    callback_group=in_order)
+                                    handle_accepted_callback=self._on_accepted, callback_group=in_order)
         self._follow_server = ActionServer(self, FollowLine, "follow_line", self._execute_follow,
                                            goal_callback=self._on_goal, cancel_callback=self._on_cancel,
-                                           callback_group=in_order)
+                                           handle_accepted_callback=self._on_accepted, callback_group=in_order)
         self._board: Optional[BoardState] = None
         self._board_changed = threading.Condition()
         self.create_subscription(BoardState, "state", self._on_state, latched(), callback_group=group)
@@ -243,7 +245,9 @@ class GCodeStreamer(Node):
     # --- one job at a time ---------------------------------------------------------
     async def _run_in_turn(self, key, name: str, goal_handle, job: Callable[[], Outcome]) -> Outcome:
         """Wait for the job's turn, then run it on the worker thread."""
-        turn = self._queue.enter(key)
+        turn = self._places.pop(id(key), None)
+        if turn is None:
+            turn = self._queue.enter(key)
         self._tell_waiting()
         if not await self._waker.wait(turn):
             return Outcome(False, "canceled before it ran", canceled=True)
@@ -292,6 +296,19 @@ class GCodeStreamer(Node):
             self.pub_error.publish(String(data=f"{name}: {why}"))
 
     # --- the action ------------------------------------------------------------
+    def _on_accepted(self, goal_handle) -> None:
+        """The goal's place in the queue, taken in the order goals are answered: its execute callback
+        starts as an executor task, and a multi-threaded executor starts tasks in any order."""
+        self._places[id(goal_handle)] = self._queue.enter(goal_handle)   # (a goal handle is not hashable)
+        goal_handle.execute()
+
+    def _give_up_place(self, goal_handle) -> None:
+        """A goal refused in its execute callback leaves the queue without running."""
+        self._places.pop(id(goal_handle), None)
+        if not self._queue.withdraw(goal_handle):
+            self._queue.leave(goal_handle)          # it had the turn: the next one gets it
+        self._tell_waiting()
+
     def _on_goal(self, goal) -> GoalResponse:
         if self._queue.full():
             self.get_logger().warn(f"run_program goal {goal.name or 'program'!r} rejected: "
@@ -311,6 +328,7 @@ class GCodeStreamer(Node):
             why = f"unknown G-code dialect {req.dialect[:20]!r}: one of {', '.join(DIALECTS)}"
         if why:
             self._refused(name, why)
+            self._give_up_place(goal_handle)
             out = Outcome(False, why)
         else:
             out = await self._run_in_turn(goal_handle, name, goal_handle,
@@ -375,7 +393,10 @@ class GCodeStreamer(Node):
         except FollowError as exc:
             problems.append(str(exc))
         texts: List[str] = []
-        if not req.from_here:
+        spm = self.machine.steps_per_mm
+        start_steps = (round_step(req.start_x_mm * spm), round_step(req.start_y_mm * spm))
+        at_start = (board.x_steps, board.y_steps) == start_steps
+        if not req.from_here and not at_start:      # (a pen already there has no way to go)
             start = f"G21 G90\nG0 X{req.start_x_mm:.4f} Y{req.start_y_mm:.4f}\n"
             try:
                 moves = compile_program(start, self._job_config(board), (board.x_steps, board.y_steps),
