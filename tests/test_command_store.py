@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import sys
 import tracemalloc
+from array import array
 from pathlib import Path
 from types import SimpleNamespace
 
@@ -45,9 +46,13 @@ def test_a_journal_keeps_it_as_text_and_gives_it_back(tmp_path):
     assert '"P 1\\nL 77' in (tmp_path / f"{'a' * 32}.job.json").read_text()
     back, progress = journal.load("a" * 32)
     assert isinstance(back.commands, CommandStore) and back.commands == COMMANDS and progress == Progress()
+    packed = JobRecord("c" * 32, "compiled", CommandStore(COMMANDS), array("I", [1, 2, 3, 4, 70000, 6]), (0, 0))
+    journal.create(packed)
+    again, _ = journal.load("c" * 32)
+    assert isinstance(again.lines, array) and list(again.lines) == [1, 2, 3, 4, 70000, 6]
     commands, lines = resume_commands(back, 4, (5, 5), True)
     listed = resume_commands(JobRecord("b" * 32, "few", list(COMMANDS), [1, 2, 3, 4, 5, 6], (0, 0)), 4, (5, 5), True)
-    assert isinstance(commands, CommandStore) and (list(commands), lines) == listed
+    assert isinstance(commands, CommandStore) and (list(commands), list(lines)) == listed
     assert list(commands[-2:]) == COMMANDS[-2:] and len(commands) > 2     # the travel back, then the rest
 
 

@@ -88,6 +88,23 @@ def test_bridge_goal_checks():
         assert word in validate_goal(commands, lines)
 
 
+def test_a_goal_as_one_text_is_checked_as_its_list_is():
+    pytest.importorskip("rclpy")
+    from plotter_bridge.link.command_store import CommandStore
+    from plotter_bridge.nodes.serial_bridge import MAX_COMMAND_LEN, validate_commands
+    good = ["P 1", "L 77 -92 5635 1872", "C 10 0 5 0 3000 0", "M6 0", "D 250", "L -1 0 15 0"]
+    assert validate_commands(CommandStore(good)) is None and validate_commands(good) is None
+    for bad in ("", "\tL 1 1", "L 1 1 *5", "N3 L 1 1", "$2=9", "?", "L 1 \x7f", "L \u00e9 1", "L " + "1" * MAX_COMMAND_LEN,
+                "~", "!"):
+        for where in (0, 3, len(good)):
+            commands = good[:where] + [bad] + good[where:]
+            expected = validate_commands(commands)
+            assert expected is not None and f"command {where + 1} " in expected, (bad, expected)
+            assert validate_commands(CommandStore(commands)) == expected
+    edge = "L 1 1 " + "2" * (MAX_COMMAND_LEN - 6)             # exactly the longest a command may be
+    assert len(edge) == MAX_COMMAND_LEN and validate_commands(CommandStore([edge])) is None
+
+
 @pytest.mark.parametrize("case", CORPUS, ids=lambda c: c.name)
 def test_bad_programs_refused_by_the_streamer_pipeline(case):
     """compile_program is what gcode_streamer runs before streaming: every

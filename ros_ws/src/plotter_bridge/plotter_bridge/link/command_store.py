@@ -13,6 +13,8 @@ import io
 from array import array
 from typing import Iterable, Iterator, Sequence, Union, overload
 
+import numpy as np
+
 
 class CommandStore(Sequence[str]):
     """Commands, each without a line end, in the order given."""
@@ -50,6 +52,14 @@ class CommandStore(Sequence[str]):
         start = self._start(0)
         end = self._ends[self._first + self._count - 1] if self._count else start
         return self._text[start:end]
+
+    def longest(self) -> int:
+        """Characters of the longest command (0 for none)."""
+        if not self._count:
+            return 0
+        ends = np.frombuffer(self._ends, dtype=np.uint32)[self._first:self._first + self._count].astype(np.int64)
+        starts = np.concatenate(([self._start(0)], ends[:-1]))
+        return int((ends - starts).max()) - 1
 
     def _start(self, k: int) -> int:
         i = self._first + k

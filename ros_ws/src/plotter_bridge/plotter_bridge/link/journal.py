@@ -14,11 +14,13 @@ Pure functions and a small file store; no ROS.
 """
 from __future__ import annotations
 
+import base64
 import itertools
 import json
 import os
 import re
 import time
+from array import array
 from dataclasses import asdict, dataclass, field, replace
 from pathlib import Path
 from typing import List, Optional, Sequence, Tuple
@@ -86,7 +88,10 @@ class Journal:
     def create(self, record: JobRecord) -> None:
         commands = record.commands
         data = asdict(replace(record, commands=[]))
-        data["lines"] = list(record.lines)           # an array of a compiled job's lines, as JSON
+        if isinstance(record.lines, array):           # a compiled job's: its bytes, not a number object each
+            data["lines"] = {"uint32_base64": base64.b64encode(array("I", record.lines).tobytes()).decode()}
+        else:
+            data["lines"] = list(record.lines)
         # a compiled job's commands as their one text (command_store.py), a few as a list
         data["commands"] = commands.text if isinstance(commands, CommandStore) else list(commands)
         self._write(self._path(record.job_id, "job"), data)
@@ -108,6 +113,10 @@ class Journal:
         except (OSError, ValueError) as exc:
             raise KeyError(f"job {job_id} not in the journal {self.directory}: {exc}") from None
         rec["start"] = tuple(rec["start"])
+        if isinstance(rec["lines"], dict):
+            lines = array("I")
+            lines.frombytes(base64.b64decode(rec["lines"]["uint32_base64"]))
+            rec["lines"] = lines
         if isinstance(rec["commands"], str):
             rec["commands"] = CommandStore.from_text(rec["commands"])
         return JobRecord(**rec), Progress(**prog)
@@ -219,7 +228,7 @@ def travel(dx: int, dy: int, rate: int) -> List[str]:
 
 
 def resume_commands(record: JobRecord, completed: int, pen_at: Tuple[int, int],
-                    pen_down: bool, z_at: Optional[int] = None) -> Tuple[Sequence[str], List[int]]:
+                    pen_down: bool, z_at: Optional[int] = None) -> Tuple[Sequence[str], Sequence[int]]:
     """Board commands that finish the job from command `completed` on, for a
     pen now at `pen_at` (steps, down or not) and a Z axis at `z_at` (steps;
     None: no Z axis)."""
@@ -247,4 +256,7 @@ def resume_commands(record: JobRecord, completed: int, pen_at: Tuple[int, int],
             head.append("P 1" if pen else "P 0")
     rest = record.commands[completed:]
     commands = CommandStore(itertools.chain(head, rest)) if isinstance(rest, CommandStore) else head + list(rest)
-    return commands, [line] * len(head) + list(record.lines[completed:])
+    rest_lines = record.lines[completed:]
+    if isinstance(rest_lines, array):
+        return commands, array("I", [line] * len(head)) + rest_lines
+    return commands, [line] * len(head) + list(rest_lines)

@@ -172,14 +172,20 @@ def compile_job(text: str, config: StreamerConfig, start_steps: Tuple[int, int] 
 
 def _checked_items(text: Union[str, bytes], config: StreamerConfig, start_steps: Tuple[int, int],
                    start_z_steps: int, reading: Reading, outside: List[GCodeError]) -> Iterator[Item]:
-    data = text.encode("utf-8", "surrogateescape") if isinstance(text, str) else text
-    if len(data) > MAX_PROGRAM_BYTES:
-        raise GCodeError(0, f"program too large: {len(data)} bytes (limit {MAX_PROGRAM_BYTES})")
+    if isinstance(text, str) and text.isascii():
+        size, source = len(text), text           # as it is: no copies of a big program to read it
+    else:
+        data = text.encode("utf-8", "surrogateescape") if isinstance(text, str) else text
+        size, source = len(data), None
+    if size > MAX_PROGRAM_BYTES:
+        raise GCodeError(0, f"program too large: {size} bytes (limit {MAX_PROGRAM_BYTES})")
+    if source is None:
+        source = decode_program(data)
     if config.machine == "hanging":
         start = config.hanging.forward(start_steps)
     else:
         start = (start_steps[0] / config.steps_per_mm, start_steps[1] / config.steps_per_mm)
-    items = read_items(decode_program(data), reading, rapid_rate=config.rapid_feed, start=start,
+    items = read_items(source, reading, rapid_rate=config.rapid_feed, start=start,
                        z_axis=config.z_mode == "axis", start_z=start_z_steps / config.z_steps_per_mm,
                        options=config.gcode_options())
     return within_limits(items, config.area, outside) if config.area is not None else items
