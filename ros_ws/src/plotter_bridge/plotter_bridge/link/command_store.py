@@ -9,28 +9,36 @@ the commands; a slice is a view of the same text.
 """
 from __future__ import annotations
 
-import io
 from array import array
 from typing import Iterable, Iterator, Sequence, Union, overload
 
 import numpy as np
 
 
+_BATCH = 4096
+
+
 class CommandStore(Sequence[str]):
     """Commands, each without a line end, in the order given."""
 
     def __init__(self, texts: Iterable[str] = ()) -> None:
-        buf = io.StringIO()
+        # Joined a few thousand at a time: a list of every command, or a StringIO's accumulator of
+        # them, would hold a string object each until the end.
+        chunks, batch = [], []
         ends = array("I")
         pos = 0
         for text in texts:
             if "\n" in text:
                 raise ValueError(f"a board command on more than one line: {text!r}")
-            buf.write(text)
-            buf.write("\n")
+            batch.append(text)
             pos += len(text) + 1
             ends.append(pos)
-        self._text, self._ends, self._first, self._count = buf.getvalue(), ends, 0, len(ends)
+            if len(batch) == _BATCH:
+                chunks.append("\n".join(batch) + "\n")
+                batch.clear()
+        if batch:
+            chunks.append("\n".join(batch) + "\n")
+        self._text, self._ends, self._first, self._count = "".join(chunks), ends, 0, len(ends)
 
     @classmethod
     def from_text(cls, text: str) -> "CommandStore":

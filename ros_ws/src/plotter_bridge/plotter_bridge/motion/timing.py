@@ -90,13 +90,18 @@ def iter_pen_lengths(commands: Iterable[BoardCommand], start: Tuple[int, int], p
         x, y = x + dx, y + dy
 
 
+def _doubles(values: Iterable[float]) -> "array[float]":
+    """An array of doubles: `values` itself if it is one (a million-command job's is not copied)."""
+    return values if isinstance(values, array) and values.typecode == "d" else array("d", values)
+
+
 class JobProgress:
     """A running job's share of the drawing done and time left, from the
     commands the board has started (the bridge's feedback)."""
 
     def __init__(self, lengths: Iterable[float], seconds: Iterable[float]) -> None:
         # Plain doubles, not float objects: 32 bytes a command in all for a job of any size.
-        self.lengths, self.seconds = array("d", lengths), array("d", seconds)
+        self.lengths, self.seconds = _doubles(lengths), _doubles(seconds)
         # Sums up to each command, so that an update costs the same for any job size.
         self._length_before = array("d", [0.0])
         self._length_before.extend(itertools.accumulate(self.lengths))

@@ -471,13 +471,16 @@ class GCodeStreamer(Node):
         """run_program's feedback from the bridge's: the line, the share done and the time left."""
         if goal_handle is None:
             return None
-        # A million commands take seconds to model: the job goes out meanwhile, and its feedback
-        # starts once the model is there.
+        # A million commands take seconds to model: it is built once the bridge runs the job (its
+        # first feedback), beside it, and the feedback goes on from when it is there.
         model: List[JobProgress] = []
-        threading.Thread(target=lambda: model.append(self._timing(record)), name="job timing", daemon=True).start()
+        begun = threading.Lock()
         total_lines = max(record.lines, default=0)
 
         def publish(fb) -> None:
+            if begun.acquire(blocking=False):
+                threading.Thread(target=lambda: model.append(self._timing(record)), name="job timing",
+                                 daemon=True).start()
             if not model:
                 return
             timing = model[0]
