@@ -140,8 +140,9 @@ class ShapeServer(Node):
         self._run_client = ActionClient(
             self, RunProgram, "run_program", callback_group=self._group
         )
-        # Goals are answered one at a time, in the order they come, so that
-        # the queue keeps their order.
+        # Goals are answered one at a time, in the order they come, and take
+        # their place in the queue as they are accepted.
+        self._places: dict = {}        # id(goal handle) -> its turn, from acceptance to its execute
         self._draw_server = ActionServer(
             self,
             DrawShape,
@@ -149,6 +150,7 @@ class ShapeServer(Node):
             execute_callback=self._execute_draw,
             goal_callback=self._on_goal,
             cancel_callback=self._on_cancel,
+            handle_accepted_callback=self._on_accepted,
             callback_group=MutuallyExclusiveCallbackGroup(),
         )
         self.create_timer(1.0, self._watch_streamer, callback_group=self._group)
@@ -221,6 +223,12 @@ class ShapeServer(Node):
             return GoalResponse.REJECT
         return GoalResponse.ACCEPT
 
+    def _on_accepted(self, goal_handle) -> None:
+        """The goal's place in the queue, taken in the order goals are answered: its execute callback
+        starts as an executor task, and a multi-threaded executor starts tasks in any order."""
+        self._places[id(goal_handle)] = self._queue.enter(goal_handle)   # (a goal handle is not hashable)
+        goal_handle.execute()
+
     def _on_cancel(self, goal_handle) -> CancelResponse:
         self._queue.withdraw(goal_handle)            # if it waits for its turn
         drawing = self._drawings.get(bytes(goal_handle.goal_id.uuid))
@@ -262,11 +270,16 @@ class ShapeServer(Node):
     async def _execute_draw(self, goal_handle) -> DrawShape.Result:
         t0 = time.monotonic()
         shape = goal_handle.request.shape
+        turn = self._places.pop(id(goal_handle), None)
+        if turn is None:
+            turn = self._queue.enter(goal_handle)
         made, reason = self._try_make_program(shape)
         if made is None:
+            if not self._queue.withdraw(goal_handle):
+                self._queue.leave(goal_handle)          # it had the turn: the next one gets it
+            self._tell_waiting()
             return self._finish(goal_handle, shape.shape, t0, DrawShape.Result(message=reason), "abort")
         name, program = made
-        turn = self._queue.enter(goal_handle)
         self._tell_waiting()
         if not await self._waker.wait(turn):
             result = DrawShape.Result(message="canceled before it was drawn")
