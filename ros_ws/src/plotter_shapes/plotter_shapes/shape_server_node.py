@@ -142,7 +142,6 @@ class ShapeServer(Node):
         )
         # Goals are answered one at a time, in the order they come, and take
         # their place in the queue as they are accepted.
-        self._places: dict = {}        # id(goal handle) -> its turn, from acceptance to its execute
         self._draw_server = ActionServer(
             self,
             DrawShape,
@@ -226,7 +225,7 @@ class ShapeServer(Node):
     def _on_accepted(self, goal_handle) -> None:
         """The goal's place in the queue, taken in the order goals are answered: its execute callback
         starts as an executor task, and a multi-threaded executor starts tasks in any order."""
-        self._places[id(goal_handle)] = self._queue.enter(goal_handle)   # (a goal handle is not hashable)
+        self._queue.enter(goal_handle)
         goal_handle.execute()
 
     def _on_cancel(self, goal_handle) -> CancelResponse:
@@ -270,13 +269,14 @@ class ShapeServer(Node):
     async def _execute_draw(self, goal_handle) -> DrawShape.Result:
         t0 = time.monotonic()
         shape = goal_handle.request.shape
-        turn = self._places.pop(id(goal_handle), None)
-        if turn is None:
-            turn = self._queue.enter(goal_handle)
+        if goal_handle.is_cancel_requested:             # withdrawn before it started: not entered again
+            self._queue.give_up(goal_handle)
+            return self._finish(goal_handle, shape.shape, t0,
+                                DrawShape.Result(message="canceled before it was drawn"), "canceled")
+        turn = self._queue.enter(goal_handle)           # its place since it was accepted
         made, reason = self._try_make_program(shape)
         if made is None:
-            if not self._queue.withdraw(goal_handle):
-                self._queue.leave(goal_handle)          # it had the turn: the next one gets it
+            self._queue.give_up(goal_handle)
             self._tell_waiting()
             return self._finish(goal_handle, shape.shape, t0, DrawShape.Result(message=reason), "abort")
         name, program = made

@@ -209,7 +209,6 @@ class GCodeStreamer(Node):
         # Goals are answered one at a time, in the order they come (a mutually
         # exclusive group), and take their place in the queue as they are accepted.
         in_order = MutuallyExclusiveCallbackGroup()
-        self._places: dict = {}                  # id(goal handle) -> its turn, from acceptance to its execute
         self._server = ActionServer(self, RunProgram, "run_program", self._execute,
                                     goal_callback=self._on_goal, cancel_callback=self._on_cancel,
                                     handle_accepted_callback=self._on_accepted, callback_group=in_order)
@@ -245,9 +244,10 @@ class GCodeStreamer(Node):
     # --- one job at a time ---------------------------------------------------------
     async def _run_in_turn(self, key, name: str, goal_handle, job: Callable[[], Outcome]) -> Outcome:
         """Wait for the job's turn, then run it on the worker thread."""
-        turn = self._places.pop(id(key), None)
-        if turn is None:
-            turn = self._queue.enter(key)
+        if goal_handle is not None and goal_handle.is_cancel_requested:
+            self._queue.give_up(key)                # withdrawn before it started: not entered again
+            return Outcome(False, "canceled before it ran", canceled=True)
+        turn = self._queue.enter(key)              # a goal's place since it was accepted
         self._tell_waiting()
         if not await self._waker.wait(turn):
             return Outcome(False, "canceled before it ran", canceled=True)
@@ -299,15 +299,8 @@ class GCodeStreamer(Node):
     def _on_accepted(self, goal_handle) -> None:
         """The goal's place in the queue, taken in the order goals are answered: its execute callback
         starts as an executor task, and a multi-threaded executor starts tasks in any order."""
-        self._places[id(goal_handle)] = self._queue.enter(goal_handle)   # (a goal handle is not hashable)
+        self._queue.enter(goal_handle)
         goal_handle.execute()
-
-    def _give_up_place(self, goal_handle) -> None:
-        """A goal refused in its execute callback leaves the queue without running."""
-        self._places.pop(id(goal_handle), None)
-        if not self._queue.withdraw(goal_handle):
-            self._queue.leave(goal_handle)          # it had the turn: the next one gets it
-        self._tell_waiting()
 
     def _on_goal(self, goal) -> GoalResponse:
         if self._queue.full():
@@ -328,7 +321,8 @@ class GCodeStreamer(Node):
             why = f"unknown G-code dialect {req.dialect[:20]!r}: one of {', '.join(DIALECTS)}"
         if why:
             self._refused(name, why)
-            self._give_up_place(goal_handle)
+            self._queue.give_up(goal_handle)       # refused: it leaves the queue without running
+            self._tell_waiting()
             out = Outcome(False, why)
         else:
             out = await self._run_in_turn(goal_handle, name, goal_handle,

@@ -72,12 +72,16 @@ class JobQueue:
 
     `enter` gives a job its place and a future that completes with True when
     its turn comes, or with False if it was withdrawn first; the running job
-    `leave`s when it ends, which gives the next one its turn."""
+    `leave`s when it ends, which gives the next one its turn.  A job entered
+    again gets the place and the future it has: an action server enters a
+    goal when it accepts it (in the order goals come) and again when its
+    execute callback starts (in any order, on a multi-threaded executor)."""
 
     def __init__(self, limit: int) -> None:
         self.limit = limit
         self._lock = threading.Lock()
         self._running: Optional[object] = None
+        self._running_turn: Optional[Future] = None
         self._waiting: List[Tuple[object, Future]] = []
 
     def full(self) -> bool:
@@ -85,10 +89,15 @@ class JobQueue:
             return len(self._waiting) >= self.limit
 
     def enter(self, key: object) -> Future:
-        turn = Future()
         with self._lock:
+            if self._running is key:
+                return self._running_turn
+            placed = next((t for k, t in self._waiting if k is key), None)
+            if placed is not None:
+                return placed
+            turn = Future()
             if self._running is None and not self._waiting:
-                self._running = key
+                self._running, self._running_turn = key, turn
                 ready = True
             else:
                 self._waiting.append((key, turn))
@@ -102,8 +111,10 @@ class JobQueue:
         with self._lock:
             if self._running is key:
                 self._running = None
+                self._running_turn = None
                 if self._waiting:
                     self._running, nxt = self._waiting.pop(0)
+                    self._running_turn = nxt
         if nxt is not None:
             nxt.set_result(True)
 
@@ -115,6 +126,11 @@ class JobQueue:
         if turn is not None:
             turn.set_result(False)
         return turn is not None
+
+    def give_up(self, key: object) -> None:
+        """A job that will not run after all leaves its place, waiting or running."""
+        if not self.withdraw(key):
+            self.leave(key)
 
     def ahead(self, key: object) -> int:
         """Jobs before this one: the running one and those waiting in front of it."""
