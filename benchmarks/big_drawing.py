@@ -3,6 +3,7 @@
 of 1.5 mm G1 segments inside the work area, the pen lifted and moved every 50 segments.
 
     python benchmarks/big_drawing.py 100000 > b100k.gcode      # lines of G-code, about 20 bytes each
+    python benchmarks/big_drawing.py 100000 --svg > b100k.svg  # the same walk as SVG paths (vpype's kind)
 
 Every line is one word group a G-code sender streams: `G1 X.. Y..`, and per 50 of them
 `M5`, `G0 X.. Y..`, `M3`.  Seeded: the same count and seed give the same bytes.
@@ -52,14 +53,39 @@ def write(lines: int, out: TextIO, seed: int = 1) -> None:
         out.write(line + "\n")
 
 
+def write_svg(lines: int, out: TextIO, seed: int = 1) -> None:
+    """The walk of `lines` lines as an SVG drawing in mm: each pen-down run one <path>, as vpype
+    writes a plot (a 1M-line walk: 20000 paths of 50 segments, about 17 MB)."""
+    out.write('<?xml version="1.0" encoding="UTF-8"?>\n<svg xmlns="http://www.w3.org/2000/svg" '
+              'width="200mm" height="200mm" viewBox="0 0 200 200">\n<g fill="none" stroke="black">\n')
+    run: list = []
+
+    def flush() -> None:
+        if len(run) > 1:
+            out.write('<path d="M' + " L".join(run) + '"/>\n')
+        run.clear()
+    for line in random_walk(lines, seed):
+        if line.startswith(("G0 ", "G1 ")):
+            words = line.split()
+            x, y = float(words[1][1:]), float(words[2][1:])
+            if line.startswith("G0 "):
+                flush()
+            run.append("%.3f,%.3f" % (x, 200.0 - y))
+        elif line == "M5":
+            flush()
+    flush()
+    out.write("</g>\n</svg>\n")
+
+
 def main() -> int:
     p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     p.add_argument("lines", type=int, help="lines of G-code")
     p.add_argument("--seed", type=int, default=1)
+    p.add_argument("--svg", action="store_true", help="write the walk as an SVG drawing instead")
     args = p.parse_args()
     if args.lines < 1:
         p.error(f"lines = {args.lines}: give at least 1")
-    write(args.lines, sys.stdout, args.seed)
+    (write_svg if args.svg else write)(args.lines, sys.stdout, args.seed)
     return 0
 
 

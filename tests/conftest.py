@@ -24,7 +24,7 @@ import pytest
 
 REPO_ROOT = Path(__file__).resolve().parent.parent
 ROS_SRC = REPO_ROOT / "ros_ws" / "src"
-SOURCE_PACKAGES = ("plotter_bridge", "plotter_shapes")
+SOURCE_PACKAGES = ("plotter_bridge", "plotter_shapes", "plotter_web")
 
 
 def add_source_packages_to_path():

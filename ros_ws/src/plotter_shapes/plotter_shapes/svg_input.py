@@ -115,18 +115,32 @@ def _colour(metadata: dict) -> str:
     return f"#{color.red:02x}{color.green:02x}{color.blue:02x}" if color is not None else ""
 
 
+def _mentions(path: str, pattern: bytes) -> bool:
+    import re
+    with open(path, "rb") as f:
+        return re.search(pattern, f.read()) is not None
+
+
+# What may hold a circle or a circular arc (svg_circles): a file without any has none to look for.
+_ROUND_SHAPES = rb"<(?:\w+:)?(?:circle|ellipse|rect)\b|\sd\s*=\s*[\"'][^\"']*[Aa]"
+_INKSCAPE_LAYER = rb"groupmode\s*=\s*[\"']layer"
+
+
 def read_layers(path: str) -> List[Layer]:
     """The file's layers in file order: its Inkscape layers, or else its stroke colours (one layer
-    when it has a single colour)."""
+    when it has a single colour).  The file is parsed once for each of these it may have (a big
+    drawing takes svgelements seconds and hundreds of MB to parse), and once for its circles."""
     import vpype as vp
     try:
-        circles = tuple(svg_circles(path))
-        doc = vp.read_multilayer_svg(path, quantization=QUANTIZATION_PX, crop=False)
-        layers = [lc for lc in doc.layers.values() if not lc.is_empty()]
-        if len(layers) > 1 and any(lc.metadata.get("svg_inkscape_groupmode") == "layer" for lc in layers):
-            return [Layer(k, str(lc.metadata.get("vp_name") or f"layer {k}"), _colour(lc.metadata),
-                          Drawing(tuple(np.asarray(line) for line in lc), circles))
-                    for k, lc in enumerate(layers, start=1)]
+        circles = tuple(svg_circles(path)) if _mentions(path, _ROUND_SHAPES) else ()
+        if _mentions(path, _INKSCAPE_LAYER):
+            doc = vp.read_multilayer_svg(path, quantization=QUANTIZATION_PX, crop=False)
+            layers = [lc for lc in doc.layers.values() if not lc.is_empty()]
+            if len(layers) > 1 and any(lc.metadata.get("svg_inkscape_groupmode") == "layer" for lc in layers):
+                return [Layer(k, str(lc.metadata.get("vp_name") or f"layer {k}"), _colour(lc.metadata),
+                              Drawing(tuple(np.asarray(line) for line in lc), circles))
+                        for k, lc in enumerate(layers, start=1)]
+            del doc, layers
         by_stroke = vp.read_svg_by_attributes(path, ["stroke"], quantization=QUANTIZATION_PX, crop=False)
     except Exception as exc:  # svgelements/xml errors: a file that is not an SVG drawing
         raise VectorError(f"{path}: cannot read as SVG: {exc}") from exc
@@ -137,7 +151,8 @@ def read_layers(path: str) -> List[Layer]:
         colours.setdefault(colour, []).extend(np.asarray(line) for line in lc)
         names.setdefault(colour, str(lc.metadata.get("svg_stroke") or colour or "no colour"))
     if len(colours) <= 1:
-        return [Layer(1, "drawing", next(iter(colours), ""), read_svg(path))]
+        lines = tuple(next(iter(colours.values()), ()))
+        return [Layer(1, "drawing", next(iter(colours), ""), Drawing(lines, circles))]
     return [Layer(k, names[colour], colour, Drawing(tuple(lines), circles))
             for k, (colour, lines) in enumerate(colours.items(), start=1)]
 

@@ -38,11 +38,12 @@ from typing import Optional, Protocol, Set
 
 from aiohttp import WSMsgType, web
 
-from .jobs import Checked
+from .jobs import MAX_UPLOAD, Checked
 
 STATIC = Path(__file__).resolve().parent / "static"
 COOKIE = "plotter_token"
-CHECKED_KEPT = 16
+CHECKED_KEPT = 16                     # checked jobs the page can still run
+CHECKED_BYTES = MAX_UPLOAD            # ... and their programs' text in all, the newest always kept
 BUTTONS = ("hold", "resume", "cancel", "estop", "reset", "set_origin", "home")
 
 
@@ -81,7 +82,7 @@ class WebApp:
         self._sockets: Set[web.WebSocketResponse] = set()
         self._checked: "OrderedDict[str, Checked]" = OrderedDict()
         self.loop: Optional[asyncio.AbstractEventLoop] = None
-        self.app = web.Application(middlewares=[self._guard], client_max_size=8 * 1024 * 1024)
+        self.app = web.Application(middlewares=[self._guard], client_max_size=MAX_UPLOAD + 1024 * 1024)
         self.app.add_routes([
             web.get("/", self._index),
             web.get("/static/{name}", self._static),
@@ -173,7 +174,10 @@ class WebApp:
     async def _check(self, request: web.Request) -> web.Response:
         if not request.content_type.startswith("multipart/"):
             raise Refused("send the file as multipart/form-data", 400)
-        form = await request.post()
+        try:
+            form = await request.post()
+        except web.HTTPRequestEntityTooLarge:
+            raise Refused(f"file too large: {request.content_length} bytes (limit {MAX_UPLOAD})", 413) from None
         upload = form.get("file")
         if upload is None or not hasattr(upload, "file"):
             raise Refused("no file in the request", 400)
@@ -189,7 +193,8 @@ class WebApp:
             None, self.backend.check, upload.filename or "upload", data, width, layers, optimize)
         key = uuid.uuid4().hex
         self._checked[key] = job
-        while len(self._checked) > CHECKED_KEPT:
+        while len(self._checked) > 1 and (len(self._checked) > CHECKED_KEPT or sum(
+                len(kept.program) for kept in self._checked.values()) > CHECKED_BYTES):
             self._checked.popitem(last=False)
         return web.json_response({"id": key, **job.as_json()})
 

@@ -17,14 +17,13 @@ import tempfile
 from dataclasses import dataclass, field
 from typing import List, Optional, Tuple
 
-from plotter_bridge.cli.picture import program_polylines
 from plotter_bridge.gcode.limits import WorkArea
-from plotter_bridge.gcode import parser
 from plotter_bridge.gcode.parser import decode_program, program_name
+from plotter_bridge.motion.compiler import MAX_PROGRAM_BYTES
 from plotter_bridge.gcode.types import GCodeError, all_errors
 from plotter_bridge.link.protocol import DEFAULT_BAUD
 
-MAX_UPLOAD = 4 * 1024 * 1024      # bytes; the streamer's own limit is the same order
+MAX_UPLOAD = MAX_PROGRAM_BYTES    # bytes: what the streamer takes
 JOG_STEPS = (0.1, 1.0, 10.0)      # mm, the page's jog buttons
 Point = Tuple[float, float]
 
@@ -43,8 +42,10 @@ class Checked:
         return bool(self.program) and not self.errors
 
     def as_json(self) -> dict:
+        # the plan has the pen-down paths too, each pen's in its colour: the page draws these without one
+        preview = [] if self.plan else self.preview
         return {"name": self.name, "ok": self.ok, "errors": self.errors, "lines": self.program.count("\n"),
-                "preview": [[[round(x, 3), round(y, 3)] for x, y in line] for line in self.preview],
+                "preview": [[[round(x, 3), round(y, 3)] for x, y in line] for line in preview],
                 "plan": self.plan}
 
 
@@ -73,16 +74,16 @@ def svg_to_program(data: bytes, name: str, area: WorkArea, width: Optional[float
 
 def check_program(text: str, name: str, area: WorkArea, start: Point, steps_per_mm: float = 80.0,
                   link_baud: int = DEFAULT_BAUD) -> Checked:
-    """Parse and check a G-code program for a pen now at `start` (mm), and plan it."""
+    """Check a G-code program for a pen now at `start` (mm) and plan it, in one reading of it: the
+    streamer's compiler, with the work area; the paths within motion/preview.py's budget of points."""
     from plotter_bridge.motion.compiler import StreamerConfig
     from plotter_bridge.motion.preview import preview_program
     job = Checked(name, text)
     try:
-        parser.check_program(text, area, start=start)
-        job.preview = program_polylines(text, start)
         config = StreamerConfig(steps_per_mm, area=area, link_baud=link_baud)
-        job.plan = preview_program(text, config, (round(start[0] * steps_per_mm),
-                                                  round(start[1] * steps_per_mm))).as_json()
+        plan = preview_program(text, config, (round(start[0] * steps_per_mm), round(start[1] * steps_per_mm)))
+        job.preview = [line for layer in plan.layers for line in layer.lines]
+        job.plan = plan.as_json()
     except GCodeError as exc:
         lines = text.splitlines()
         for error in all_errors(exc):

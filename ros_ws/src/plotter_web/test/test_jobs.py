@@ -2,7 +2,7 @@
 import pytest
 
 from plotter_bridge.gcode.limits import WorkArea
-from plotter_web.jobs import check_program, check_upload, is_svg, jog_program
+from plotter_web.jobs import MAX_UPLOAD, check_program, check_upload, is_svg, jog_program
 
 
 def test_a_good_program_gets_a_preview_and_a_bad_one_its_line():
@@ -16,7 +16,8 @@ def test_uploads_are_named_and_refused_with_a_reason():
     job = check_upload("dir/p.gcode", b"(logo)\nG0 X1 Y1\nM2\n", WorkArea(), (0, 0))
     assert job.ok and job.name == "logo"
     assert check_upload("p.gcode", b"G0 X1\n\xff\n", WorkArea(), (0, 0)).errors[0]["line"] == 2
-    assert "too large" in check_upload("p.gcode", b" " * (5 << 20), WorkArea(), (0, 0)).errors[0]["message"]
+    assert "too large" in check_upload("p.gcode", b" " * (MAX_UPLOAD + 1), WorkArea(), (0, 0)).errors[0]["message"]
+    assert MAX_UPLOAD >= 20 << 20, "a million-line drawing is taken"
     assert is_svg("x.txt", b"  <?xml version='1.0'?><svg/>") and not is_svg("x.nc", b"G0 X1")
 
 

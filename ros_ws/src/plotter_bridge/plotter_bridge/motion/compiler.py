@@ -141,13 +141,17 @@ def compile_texts(text: Union[str, bytes], config: StreamerConfig, start_steps: 
 
 
 def compile_stream(text: Union[str, bytes], config: StreamerConfig, start_steps: Tuple[int, int] = (0, 0),
-                   start_z_steps: int = 0) -> Iterator[BoardCommand]:
+                   start_z_steps: int = 0, observe: Optional[Callable[[Item], None]] = None) -> Iterator[BoardCommand]:
     """compile_program one command at a time.  The program's refusals are known only when it has been
-    read to its end, so the GCodeError comes after the last command: a caller sends nothing before."""
+    read to its end, so the GCodeError comes after the last command: a caller sends nothing before.
+    `observe` sees each item (compile_job's) as it goes on to become commands."""
     reading, outside, park = Reading(), [], []
     checked = _checked_items(text, config, start_steps, start_z_steps, reading, outside)
+    items = _board_items(checked, config, park)
+    if observe is not None:
+        items = _observed(items, observe)
     try:
-        yield from _commands(_board_items(checked, config, park), config)
+        yield from _commands(items, config)
     except (GCodeError, ValueError):
         for _ in checked:            # a later stage's complaint about a line the reading refuses
             pass
@@ -156,6 +160,12 @@ def compile_stream(text: Union[str, bytes], config: StreamerConfig, start_steps:
     for _ in checked:
         pass
     _raise_refusals(reading, outside, park)
+
+
+def _observed(items: Iterable[Item], observe: Callable[[Item], None]) -> Iterator[Item]:
+    for item in items:
+        observe(item)
+        yield item
 
 
 def compile_job(text: str, config: StreamerConfig, start_steps: Tuple[int, int] = (0, 0),
