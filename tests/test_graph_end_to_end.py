@@ -247,6 +247,41 @@ def test_cancel_stops_the_board_and_nothing_moves_after(graph):
     assert len(read_trace(graph.trace)) == n, "the board kept moving after the cancel"
 
 
+def test_a_program_past_the_old_four_megabytes_from_the_topic_is_drawn(graph):
+    """/plotter/program takes what the streamer takes (MAX_PROGRAM_BYTES, 64 MB): a 5 MB random walk
+    of 1.5 mm segments (benchmarks/big_drawing.py) is checked whole, then drawn; stopped here with
+    the emergency stop once the pen has drawn part of it (it would take hours)."""
+    import io
+    import sys
+    from std_msgs.msg import String
+    from plotter_interfaces.msg import BoardState
+    sys.path.insert(0, str(REPO / "benchmarks"))
+    import big_drawing
+    out = io.StringIO()
+    big_drawing.write(275_000, out)
+    text = out.getvalue()
+    assert len(text) > 5 * 1024 * 1024
+    publisher = graph.probe.node.create_publisher(String, "program", 10)
+    wait_until(lambda: publisher.get_subscription_count() > 0, 30, "gcode_streamer subscription")
+    first = read_trace(graph.trace)
+    t0 = time.monotonic()
+    publisher.publish(String(data=text))
+
+    start = (round(100 * STEPS_PER_MM), round(100 * STEPS_PER_MM))      # the walk's first point, X100 Y100
+
+    def drawing():
+        steps = [s[1:] for s in read_trace(graph.trace)[len(first):]]
+        return start in steps and len(steps) - steps.index(start) > 200
+    wait_until(drawing, 240, "the 5 MB program to be checked and its drawing to start")
+    with graph.lock:
+        assert any(s[0] >= t0 and s[1] == BoardState.RUNNING for s in graph.states)
+    assert call(graph, "estop").success
+    wait_until(lambda: graph.states[-1][1] == BoardState.ALARM, 10, "ALARM")
+    assert call(graph, "reset").success
+    wait_until(lambda: graph.states[-1][1] == BoardState.IDLE, 10, "IDLE after reset")
+    graph.probe.node.destroy_publisher(publisher)
+
+
 def call(graph, name):
     from std_srvs.srv import Trigger
     client = graph.probe.node.create_client(Trigger, name)
