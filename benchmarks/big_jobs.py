@@ -5,10 +5,13 @@ resident memory of each process, for random walks of 10k, 100k and 1M lines
 the mock board (each node its own process, as `ros2 run` starts them): the time from the command
 to the pen's first move, the peak resident memory of each process by then, and the bytes of the
 two messages that carry the job (run_program's goal, the program; stream_commands', its board
-commands), as DDS serializes them.
+commands), as DDS serializes them.  And the pictures of each drawing: `plotter check --png`,
+`plotter svg --preview` of the same walk written as SVG paths, and the page's check of an upload
+(plotter_web/jobs.py check_upload, and the bytes of the JSON the page gets): time, peak memory and
+the tolerance the preview was drawn within (motion/preview.py Thinning).
 
     bash scripts/setup.sh && source ros_ws/install/setup.bash && \
-        .venv/bin/python benchmarks/big_jobs.py [--sizes 10000 100000 1000000] [--no-graph]
+        .venv/bin/python benchmarks/big_jobs.py [--sizes 10000 100000 1000000] [--no-graph] [--no-pictures]
 
 rs274 is fetched as tests/test_gcode_oracle.py does (Debian's linuxcnc-uspace, cached in
 ~/.cache/plotter-rs274); without it its columns say why.  Each figure is one run of its own
@@ -34,7 +37,16 @@ from typing import List, Optional
 ROOT = Path(__file__).resolve().parent.parent
 sys.path[:0] = [str(ROOT / "tests"), str(ROOT / "benchmarks")]
 
-from big_drawing import write  # noqa: E402
+from big_drawing import write, write_svg  # noqa: E402
+
+# The page's check of an upload, as its node runs it (in its own process here, for its peak memory).
+PAGE_CHECK = """
+import json, sys
+from plotter_bridge.gcode.limits import WorkArea
+from plotter_web.jobs import check_upload
+job = check_upload(sys.argv[1], open(sys.argv[1], "rb").read(), WorkArea(), (0.0, 0.0))
+print(len(json.dumps(job.as_json())), job.ok, (job.plan or {}).get("tolerance_mm"), job.errors[:1])
+"""
 
 
 @dataclass
@@ -75,7 +87,8 @@ def rs274_command():
 def main() -> int:
     p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     p.add_argument("--sizes", type=int, nargs="+", default=[10_000, 100_000, 1_000_000])
-    p.add_argument("--no-graph", action="store_true", help="only plotter check beside rs274")
+    p.add_argument("--no-graph", action="store_true", help="no node graph")
+    p.add_argument("--no-pictures", action="store_true", help="no previews")
     args = p.parse_args()
     plotter = shutil.which("plotter") or str(Path(sys.executable).parent / "plotter")
     oracle, why = rs274_command()
@@ -108,9 +121,46 @@ def main() -> int:
                 path = Path(tmp) / f"walk{size}.ngc"
                 row = graph_row(path, Path(tmp) / f"graph{size}", plotter)
                 print("| " + " | ".join([f"{size}", *row]) + " |", flush=True)
-        for path in Path(tmp).glob("walk*.ngc"):
+        if not args.no_pictures:
+            print("\n| lines | check --png s | peak MB | within mm | svg MB | svg --preview s | peak MB "
+                  "| within mm | page check s | peak MB | within mm | page JSON MB |")
+            print("|---|---|---|---|---|---|---|---|---|---|---|---|")
+            for size in args.sizes:
+                path = Path(tmp) / f"walk{size}.ngc"
+                print("| " + " | ".join([f"{size}", *pictures_row(path, plotter)]) + " |", flush=True)
+        for path in [*Path(tmp).glob("walk*.ngc"), *Path(tmp).glob("walk*.svg")]:
             path.unlink()
     return 0
+
+
+def _within(said: str) -> str:
+    found = re.search(r"drawn here to within ([0-9.e+-]+) mm", said)
+    return found.group(1) if found else "0 (every point)"
+
+
+def pictures_row(path: Path, plotter: str) -> List[str]:
+    """plotter check --png, plotter svg --preview of the walk as SVG, the page's check of the file."""
+    row = []
+    png = path.with_suffix(".png")
+    check = measure([plotter, "check", str(path), "--png", str(png)])
+    if check.code != 0:
+        print(f"plotter check --png exited {check.code}:\n{check.said[-2000:]}", file=sys.stderr)
+    row += [f"{check.seconds:.1f}", f"{check.peak_mb:.0f}", _within(check.said)]
+    svg = path.with_suffix(".svg")
+    with open(svg, "w") as f:
+        write_svg(sum(1 for _ in open(path)), f)
+    preview = measure([plotter, "svg", str(svg), "--preview", str(png)])
+    if preview.code != 0:
+        print(f"plotter svg --preview exited {preview.code}:\n{preview.said[-2000:]}", file=sys.stderr)
+    row += [f"{svg.stat().st_size / 1e6:.1f}", f"{preview.seconds:.1f}", f"{preview.peak_mb:.0f}",
+            _within(preview.said)]
+    page = measure([sys.executable, "-c", PAGE_CHECK, str(path)])
+    said = page.said.split()
+    if page.code != 0 or len(said) < 3 or said[1] != "True":
+        print(f"the page's check exited {page.code}:\n{page.said[-2000:]}", file=sys.stderr)
+        return row + ["-", "-", "-", "-"]
+    within = said[2] if said[2] not in ("0.0", "None") else "0 (every point)"
+    return row + [f"{page.seconds:.1f}", f"{page.peak_mb:.0f}", within, f"{int(said[0]) / 1e6:.1f}"]
 
 
 def _peak_mb(pid: int) -> float:
