@@ -90,25 +90,22 @@ def iter_pen_lengths(commands: Iterable[BoardCommand], start: Tuple[int, int], p
         x, y = x + dx, y + dy
 
 
-def _doubles(values: Iterable[float]) -> "array[float]":
-    """An array of doubles: `values` itself if it is one (a million-command job's is not copied)."""
-    return values if isinstance(values, array) and values.typecode == "d" else array("d", values)
-
-
 class JobProgress:
     """A running job's share of the drawing done and time left, from the
     commands the board has started (the bridge's feedback)."""
 
     def __init__(self, lengths: Iterable[float], seconds: Iterable[float]) -> None:
-        # Plain doubles, not float objects: 32 bytes a command in all for a job of any size.
-        self.lengths, self.seconds = _doubles(lengths), _doubles(seconds)
-        # Sums up to each command, so that an update costs the same for any job size.
+        # Only the sums up to each command, as plain doubles: an update costs the same for any job
+        # size, and a command's own figures are the difference of two (16 bytes a command in all).
         self._length_before = array("d", [0.0])
-        self._length_before.extend(itertools.accumulate(self.lengths))
+        self._length_before.extend(itertools.accumulate(lengths))
         self._seconds_before = array("d", [0.0])
-        self._seconds_before.extend(itertools.accumulate(self.seconds))
+        self._seconds_before.extend(itertools.accumulate(seconds))
         self._running = -1                  # the command the board works on (-1: none yet)
         self._started_at = 0.0              # when it was first seen running
+
+    def __len__(self) -> int:
+        return len(self._length_before) - 1
 
     @classmethod
     def of_commands(cls, texts: Iterable[str], start: Tuple[int, int], pen_mm: PenMm,
@@ -134,7 +131,7 @@ class JobProgress:
     def update(self, started: int, now: float) -> Tuple[float, float]:
         """(fraction of the length done, seconds left) with `started`
         commands begun, the last of them running, at time `now`."""
-        n = len(self.lengths)
+        n = len(self)
         if n == 0:
             return 1.0, 0.0
         running = min(started, n) - 1
@@ -145,9 +142,10 @@ class JobProgress:
         done = self._length_before[running]
         left = self.total_seconds - self._seconds_before[running]
         # Within the running command, as far as its planned time says.
-        spent = min(max(now - self._started_at, 0.0), self.seconds[running])
-        if self.seconds[running] > 0:
-            done += spent / self.seconds[running] * self.lengths[running]
+        seconds = self._seconds_before[running + 1] - self._seconds_before[running]
+        spent = min(max(now - self._started_at, 0.0), seconds)
+        if seconds > 0:
+            done += spent / seconds * (self._length_before[running + 1] - self._length_before[running])
         left -= spent
         fraction = done / self.total_length if self.total_length > 0 else running / n
         return min(max(fraction, 0.0), 1.0), max(left, 0.0)
