@@ -51,7 +51,7 @@ import time
 import traceback
 import uuid
 from dataclasses import dataclass, replace
-from typing import Callable, List, Optional, Tuple
+from typing import Callable, List, Optional, Tuple, Union
 
 from rclpy.action import ActionServer, CancelResponse, GoalResponse
 from rclpy.action.server import ServerGoalHandle
@@ -101,6 +101,15 @@ class Outcome:
     xy: Optional[Tuple[float, float]] = None    # the pen (mm) when the job ended
     # A job whose every command started, on a board with line sensors: its follow's state and steps at the end.
     follow: Optional[Tuple[int, int]] = None
+
+
+def _given_up(message, field: str) -> List[str]:
+    """A message's program text in a list, the message's own field emptied: run takes it from the
+    list, and once it is compiled nothing holds it (a million-line program is 20 MB, its job hours
+    long).  Python keeps a call's arguments until the call returns: a list lets it go sooner."""
+    text = getattr(message, field)
+    setattr(message, field, "")
+    return [text]
 
 
 def check_request(program: str, name: str, resume: str) -> Optional[str]:
@@ -288,7 +297,8 @@ class GCodeStreamer(Node):
         if why is None and self._queue.full():
             why = f"{self._queue.limit} jobs already waiting: program dropped"
         if why is None:
-            out = await self._run_in_turn(object(), name, None, lambda: self.run(msg.data, name, None))
+            text = _given_up(msg, "data")
+            out = await self._run_in_turn(object(), name, None, lambda: self.run(text, name, None))
             why = None if out.success else out.message
         elif why:
             self._refused(name, why)
@@ -325,8 +335,9 @@ class GCodeStreamer(Node):
             self._tell_waiting()
             out = Outcome(False, why)
         else:
+            text = _given_up(req, "program")
             out = await self._run_in_turn(goal_handle, name, goal_handle,
-                                          lambda: self.run(req.program, name, goal_handle, req.resume, req.dialect))
+                                          lambda: self.run(text, name, goal_handle, req.resume, req.dialect))
         result = RunProgram.Result()
         result.success, result.message, result.lines_done = out.success, out.message, out.lines_done
         result.job_id = out.job_id
@@ -423,9 +434,13 @@ class GCodeStreamer(Node):
         return self._stream(self._record("follow", [command], [1], board), goal_handle, publish, resumable=False,
                             stop=lambda: bool(edge))
 
-    def run(self, text: str, name: str, goal_handle, resume: str = "", dialect: str = "") -> Outcome:
+    def run(self, text: Union[str, List[str]], name: str, goal_handle, resume: str = "",
+            dialect: str = "") -> Outcome:
         """Run one program, or resume a journalled job (on the worker thread:
-        it waits for the board)."""
+        it waits for the board).  The program may come in a list (_given_up), which gives it up
+        once it is compiled."""
+        if isinstance(text, list):
+            text = text.pop() if text else ""
         board = self._board_state()
         why = board_refusal(board)
         if why:
@@ -438,6 +453,7 @@ class GCodeStreamer(Node):
             job = compile_texts(text, self._job_config(board, dialect), start, board.z_steps)
         except GCodeError as exc:
             return Outcome(False, str(exc))
+        del text                    # the job runs for hours on its commands alone
         # said for every job: the time to the first step of a big one is mostly this
         self.get_logger().info(f"{name}: checked and planned, {len(job.texts)} board commands in "
                                f"{time.monotonic() - t0:.1f} s")
