@@ -105,6 +105,24 @@ def test_a_goal_as_one_text_is_checked_as_its_list_is():
     assert len(edge) == MAX_COMMAND_LEN and validate_commands(CommandStore([edge])) is None
 
 
+def test_a_goal_as_one_text_names_its_unknown_pen_change_as_its_list_does():
+    """validate_goal's pen changes: each "M6 k" needs a k-th entry of pen_changes (when the goal
+    gives any), read over a CommandStore's text at once or command by command, the same answer."""
+    pytest.importorskip("rclpy")
+    from plotter_bridge.link.command_store import CommandStore
+    from plotter_bridge.nodes.serial_bridge import validate_goal
+    base = ["P 1", "L 77 -92 5635 1872", "M6 0", "L 1 1 15 0", "M6 1", "D 250"]
+    for extra in ("M6 1", "M6 2", "M6 12", "M6  2", "M6 2 ", "M6 x", "M62", "M6 0"):
+        for where in (0, 3, len(base)):
+            commands = base[:where] + [extra] + base[where:]
+            for pens in ([], ["black"], ["black", "red"], ["black", "red", "blue"]):
+                lines = list(range(1, len(commands) + 1))
+                expected = validate_goal(commands, lines, pens)
+                assert validate_goal(CommandStore(commands), lines, pens) == expected, (extra, where, pens)
+                if pens == ["black", "red"] and extra.split() == ["M6", "2"]:
+                    assert expected is not None and f"command {where + 1} " in expected
+
+
 @pytest.mark.parametrize("case", CORPUS, ids=lambda c: c.name)
 def test_bad_programs_refused_by_the_streamer_pipeline(case):
     """compile_program is what gcode_streamer runs before streaming: every
