@@ -8,7 +8,7 @@ two messages that carry the job (run_program's goal, the program; stream_command
 commands), as DDS serializes them.  And the pictures of each drawing: `plotter check --png`,
 `plotter svg --preview` of the same walk written as SVG paths, and the page's check of an upload
 (plotter_web/jobs.py check_upload, and the bytes of the JSON the page gets): time, peak memory and
-the tolerance the preview was drawn within (motion/preview.py Thinning).
+the tolerance the preview was drawn within (gcode/thinning.py).
 
     bash scripts/setup.sh && source ros_ws/install/setup.bash && \
         .venv/bin/python benchmarks/big_jobs.py [--sizes 10000 100000 1000000] [--no-graph] [--no-pictures]

@@ -1,8 +1,8 @@
 """A big drawing's plan (motion/preview.py, `plotter check --svg/--png`, the page's upload): read
 as a stream, its paths kept within a budget of points, its lengths and time the whole job's.
 
-Thinning is checked as the eye would: every point of the job lies within twice the stated
-tolerance of a kept path, each path keeps its ends, and the budget holds; then the preview of
+Thinning (gcode/thinning.py) is checked as the eye would: every point lies within three times
+the stated tolerance of a kept path, each path keeps its ends, and the budget holds; then the preview of
 a random walk of tens of thousands of segments against the exact one, and what the preview
 holds against the program's length.
 """
@@ -21,11 +21,11 @@ import pytest
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent / "benchmarks"))
-import gcode_testlib  # noqa: E402,F401  (puts plotter_bridge on the path)
 import big_drawing  # noqa: E402
 
 from plotter_bridge.motion.compiler import StreamerConfig, compile_job  # noqa: E402
-from plotter_bridge.motion.preview import Thinning, preview_items, preview_program  # noqa: E402
+from plotter_bridge.gcode.thinning import Thinning  # noqa: E402
+from plotter_bridge.motion.preview import preview_items, preview_program  # noqa: E402
 
 Point = Tuple[float, float]
 

@@ -11,7 +11,7 @@ from plotter_bridge.gcode.limits import WorkArea
 from plotter_bridge.motion.kinematics import Machine
 from plotter_bridge.motion.compiler import StreamerConfig, compile_program
 from plotter_bridge.link.telemetry import (ERROR, OK, STALE, WARN, BridgeSnapshot, LinkCounters, Sample,
-                                          diagnose_board, diagnose_link, ink_segments, planned_pen_points,
+                                          diagnose_board, diagnose_link, planned_pen_points,
                                           planned_points, step_rate, thin)
 
 
@@ -74,12 +74,11 @@ def test_a_big_jobs_planned_path_is_decimated_keeping_its_order_pen_changes_and_
     assert all(any(q == p for q in walk) for p in pts)                 # the walk's own points, in its order
 
 
-def test_step_rate_thinning_and_ink():
+def test_step_rate_and_thinning():
     a, b = Sample(0.0, 0, 0, True), Sample(0.5, 300, -200, True)
     assert step_rate(a, b) == 1000.0 and step_rate(b, b) == 0.0
     samples = [Sample(float(k), k, 0, k % 3 != 0) for k in range(10)]
     assert len(thin(samples, 6)) == 8 and thin(samples, 6)[-5:] == samples[-5:]
-    assert ink_segments(samples) == [(samples[1], samples[2]), (samples[4], samples[5]), (samples[7], samples[8])]
 
 
 def test_diagnostic_levels():
@@ -126,7 +125,7 @@ def test_path_grows_and_diagnostics_follow_the_link(tmp_path):
     g = PlotterGraph(domain, tmp_path, streamer_args=("-p", "fit_arcs:=false"))
     probe = Probe(domain)
     lock = threading.Lock()
-    paths, planned, pens, diags, positions = [], [], [], [], []
+    paths, planned, pens, diags, positions, inks = [], [], [], [], [], []
 
     def keep(store, f):
         def cb(msg):
@@ -141,6 +140,8 @@ def test_path_grows_and_diagnostics_follow_the_link(tmp_path):
     node.create_subscription(Path, "planned_path", keep(planned, lambda m: [(p.pose.position.x, p.pose.position.y)
                                                                             for p in m.poses]), latched)
     node.create_subscription(Marker, "pen", keep(pens, lambda m: (m.pose.position.x, m.header.frame_id)), 10)
+    node.create_subscription(Marker, "ink", keep(inks, lambda m: [(p.x * 1000, p.y * 1000) for p in m.points]),
+                             latched)
     node.create_subscription(PointStamped, "position", keep(positions, lambda m: (m.point.x * 1000, m.point.y * 1000)), 10)   # m -> mm
     node.create_subscription(DiagnosticArray, "/diagnostics", keep(diags, lambda m: {
         s.name: (s.level, s.message, {kv.key: kv.value for kv in s.values}) for s in m.status}), 10)
@@ -187,6 +188,14 @@ def test_path_grows_and_diagnostics_follow_the_link(tmp_path):
         plan = planned[-1][1]
         assert len(plan) > 100 and math.dist((plan[-1][0] * 1000, plan[-1][1] * 1000), end) < 0.05
         assert pens and pens[-1][1][1] == "plotter"
+        # The ink: segments between the reports while the pen drew, on the program's path (its
+        # points every 0.8 mm, so within 0.4 mm of one of them and the step's rounding).
+        drawn = [(40.0, 40.0)] + [tuple(map(float, (w[1:] for w in line.split()[1:3])))
+                                  for line in text.splitlines() if line.startswith("G1 ")]
+        wait_until(lambda: inks and len(inks[-1][1]) >= 6, 20, "the ink")
+        with lock:
+            ink = inks[-1][1]
+        assert len(ink) % 2 == 0 and all(min(math.dist(p, q) for q in drawn) < 0.42 for p in ink), ink
 
         g.board.proc.kill()                          # the port goes away
         g.board.proc.wait()

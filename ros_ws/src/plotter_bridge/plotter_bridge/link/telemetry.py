@@ -1,6 +1,6 @@
 """What the serial bridge reports besides the position, without ROS: the
 planned path of a job from its board commands, the pen's trace (samples,
-step rate, thinning, the pen-down segments) and the diagnosis of the link
+step rate, thinning) and the diagnosis of the link
 and the board (OK, WARN, ERROR as REP-107 describes).
 
 nodes/telemetry.py turns these into messages; everything here is in the
@@ -144,17 +144,6 @@ def thin(samples: List[Sample], limit: int = MAX_PATH_POSES) -> List[Sample]:
         return samples
     half = len(samples) // 2
     return samples[:half:2] + samples[half:]
-
-
-def ink_segments(samples: Sequence[Sample]) -> List[Tuple[Sample, Sample]]:
-    """Consecutive reports with the pen down at both: what is on the paper."""
-    return [(samples[k], samples[k + 1]) for k in ink_indices(samples)]
-
-
-def ink_indices(samples: Sequence[Sample]) -> List[int]:
-    """k for each ink segment samples[k] - samples[k + 1]."""
-    return [k for k, (a, b) in enumerate(zip(samples, samples[1:]))
-            if a.pen_down and b.pen_down and (a.x, a.y) != (b.x, b.y)]
 
 
 # --- diagnostics -------------------------------------------------------------------------------

@@ -13,7 +13,9 @@ keeps them; two timers of the bridge's node publish, in its namespace:
 - ``pen`` (visualization_msgs/Marker, 4 times a second): the pen, red when
   down, grey when up;
 - ``ink`` (visualization_msgs/Marker, line list, with ``path``): the pen-down
-  part of the trajectory, what is on the paper;
+  part of the trajectory, what is on the paper, every report of it from the
+  bridge's start, kept within INK_POINTS points as the eye sees them
+  (gcode/thinning.py: a day-long drawing alike from its first line);
 - ``/diagnostics`` (diagnostic_msgs/DiagnosticArray, once a second, as
   diagnostic_updater does): the link (connection, bytes, errors,
   retransmissions) and the board (state, queue fill, step rate, firmware),
@@ -51,14 +53,17 @@ from std_msgs.msg import Header
 from visualization_msgs.msg import Marker
 
 from plotter_bridge.link.telemetry import (MAX_PATH_POSES, BridgeSnapshot, LinkCounters, Sample, ToPen,
-                                           diagnose_board, diagnose_link, ink_indices, planned_pen_points,
+                                           diagnose_board, diagnose_link, planned_pen_points,
                                            step_rate, thin)
+
+from plotter_bridge.gcode.thinning import Thinning
 
 from .qos import latched
 
 MM = 0.001                      # metres per mm
 PUBLISH_PERIOD = 0.25           # s between pen messages and new planned paths
 TRACE_PERIOD = 1.0              # s between path and ink messages (when they changed)
+INK_POINTS = 6000               # points of the ink at most (a line list of twice as many)
 
 
 class BridgeTelemetry:
@@ -79,6 +84,9 @@ class BridgeTelemetry:
         self._lock = threading.Lock()
         self._diag_lock = threading.Lock()
         self._samples: List[Sample] = []
+        self._new_ink: List[Tuple[Sample, Sample]] = []     # pen-down moves since the last ink message
+        self._ink = Thinning(INK_POINTS)                    # trace timer only
+        self._ink_lines = self._ink.group()
         self._built: dict = {}                      # Sample -> its (PoseStamped, Point): trace timer only
         self._changed = False
         self._planned: Optional[tuple] = None
@@ -109,6 +117,8 @@ class BridgeTelemetry:
                                  counters=LinkCounters.of(stats))
             self._last_status_t = now
             if prev is None or (prev.x, prev.y, prev.pen_down) != (sample.x, sample.y, sample.pen_down):
+                if prev is not None and prev.pen_down and sample.pen_down:
+                    self._new_ink.append((prev, sample))
                 self._samples.append(sample)
                 if len(self._samples) > MAX_PATH_POSES:
                     self._samples = thin(self._samples)
@@ -135,6 +145,9 @@ class BridgeTelemetry:
                 return
             samples = list(self._samples)
             self._changed = False
+            new_ink, self._new_ink = self._new_ink, []
+        for a, b in new_ink:
+            self._ink.add(self._ink_lines, [(a.x, a.y), (b.x, b.y)], join=True)
         header = self._header()
         built = {s: self._built.get(s) or (self._pose(header, s.x, s.y), self._point(s)) for s in samples}
         self._built = built                         # thinned-out samples drop out here
@@ -169,7 +182,9 @@ class BridgeTelemetry:
         ink.scale.x = 0.0005
         ink.color.r = ink.color.g = ink.color.b = 0.05
         ink.color.a = 1.0
-        ink.points = [points[k + i] for k in ink_indices(samples) for i in (0, 1)]
+        k = self.steps_per_mm / MM
+        ink.points = [Point(x=x / k, y=y / k) for line in self._ink_lines
+                      for a, b in zip(line, line[1:]) for x, y in (a, b)]
         self.pub_ink.publish(ink)
 
     def _publish_pen(self, s: Sample) -> None:
