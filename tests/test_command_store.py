@@ -56,6 +56,21 @@ def test_a_journal_keeps_it_as_text_and_gives_it_back(tmp_path):
     assert list(commands[-2:]) == COMMANDS[-2:] and len(commands) > 2     # the travel back, then the rest
 
 
+def test_a_journal_writes_a_big_text_in_pieces_that_read_back_whole(tmp_path, monkeypatch):
+    """Journal.create writes a CommandStore's text a CHUNK at a time into the JSON: pieces of 7
+    characters here, so that every command is cut somewhere, the file JSON and the text the same."""
+    import json
+    from plotter_bridge.link import journal as journal_module
+    monkeypatch.setattr(journal_module, "CHUNK", 7)
+    journal = Journal(tmp_path)
+    commands = COMMANDS * 5 + ['M6 0 "quoted" \\ back']
+    journal.create(JobRecord("d" * 32, "pieces", CommandStore(commands), list(range(len(commands))), (0, 0)))
+    on_disk = json.loads((tmp_path / f"{'d' * 32}.job.json").read_text())
+    assert on_disk["commands"] == CommandStore(commands).text and on_disk["name"] == "pieces"
+    back, _ = journal.load("d" * 32)
+    assert list(back.commands) == commands and list(back.lines) == list(range(len(commands)))
+
+
 def test_the_bridge_takes_a_goal_by_list_or_by_text_not_both():
     assert goal_commands(SimpleNamespace(commands=COMMANDS, command_text="")) is COMMANDS
     assert goal_commands(SimpleNamespace(commands=[], command_text="P 1\nL 1 0 15 0\n")) == ["P 1", "L 1 0 15 0"]

@@ -30,6 +30,7 @@ from .protocol import MAX_DELTA, MAX_RATE, MIN_RATE
 
 RUNNING, DONE, INTERRUPTED = "running", "done", "interrupted"
 _ID = re.compile(r"^[0-9a-f]{32}$")
+CHUNK = 1 << 20                   # characters of a big text written at a time
 
 
 def default_journal_dir() -> Path:
@@ -76,11 +77,21 @@ class Journal:
             raise ValueError(f"not a job id: {job_id!r}")
         return self.directory / f"{job_id}.{kind}.json"
 
-    def _write(self, path: Path, data: dict) -> None:
+    def _write(self, path: Path, data: dict, text_last: str = "") -> None:
+        """`data` as JSON; with `text_last`, the object's last member "commands" is that text, written
+        a megabyte at a time: a million commands' 22 MB are not also held escaped and encoded."""
         self.directory.mkdir(parents=True, exist_ok=True)
         tmp = path.with_suffix(".tmp")
         with open(tmp, "w") as f:
-            json.dump(data, f)
+            if text_last:
+                head = json.dumps({**data, "commands": ""})
+                assert head.endswith('"commands": ""}')
+                f.write(head[:-2])
+                for k in range(0, len(text_last), CHUNK):
+                    f.write(json.dumps(text_last[k:k + CHUNK])[1:-1])     # a string's escapes are per character
+                f.write('"}')
+            else:
+                json.dump(data, f)
             f.flush()
             os.fsync(f.fileno())
         os.replace(tmp, path)
@@ -93,8 +104,12 @@ class Journal:
         else:
             data["lines"] = list(record.lines)
         # a compiled job's commands as their one text (command_store.py), a few as a list
-        data["commands"] = commands.text if isinstance(commands, CommandStore) else list(commands)
-        self._write(self._path(record.job_id, "job"), data)
+        if isinstance(commands, CommandStore) and commands.text:
+            del data["commands"]
+            self._write(self._path(record.job_id, "job"), data, text_last=commands.text)
+        else:
+            data["commands"] = list(commands)
+            self._write(self._path(record.job_id, "job"), data)
         self.update(record.job_id, Progress())
 
     def update(self, job_id: str, progress: Progress) -> None:
