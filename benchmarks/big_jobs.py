@@ -58,16 +58,18 @@ class Run:
 
 
 def measure(cmd: List[str], env: Optional[dict] = None) -> Run:
-    """Wall time and the process's own peak resident memory (ru_maxrss, kB on Linux).  A child's
-    ru_maxrss starts from this process's size when it forks: these come before the graph's
-    rclpy makes it big."""
+    """Wall time, the process's own peak resident memory (ru_maxrss, kB on Linux) and the end of
+    what it said.  A child's ru_maxrss starts from this process's size when it forks: these come
+    before the graph's rclpy makes it big."""
     with tempfile.TemporaryFile() as out:
         t0 = time.monotonic()
         proc = subprocess.Popen(cmd, stdin=subprocess.DEVNULL, stdout=out, stderr=subprocess.STDOUT, env=env)
         _, status, usage = os.wait4(proc.pid, 0)
         seconds = time.monotonic() - t0
         proc.returncode = os.waitstatus_to_exitcode(status)
-        out.seek(0)
+        # the end of what it said: rs274 says a line for each of a million, and this process's own
+        # size is where a child's peak starts
+        out.seek(max(0, out.seek(0, os.SEEK_END) - 65536))
         said = out.read().decode(errors="replace")
     return Run(seconds, usage.ru_maxrss / 1024.0, proc.returncode, said)
 
