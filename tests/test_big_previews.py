@@ -113,7 +113,8 @@ def test_a_stippling_keeps_about_one_dot_per_cell():
     fits = 50 / math.sqrt(500 * 3 // 4 // 2)
     assert fits <= thinning.tolerance < 2 * fits * 1.5, thinning.tolerance
     assert len(group) > 100, "the page is still covered"
-    cells = [(math.floor(line[0][0] / thinning.tolerance), math.floor(line[0][1] / thinning.tolerance))
+    x_lo, y_lo, t = *thinning._grid[:2], thinning.tolerance
+    cells = [(math.floor((line[0][0] - x_lo) / t), math.floor((line[0][1] - y_lo) / t))
              for line in group[:thinning._judged[0]]]
     assert len(set(cells)) == len(cells), "two dots in one cell"
 

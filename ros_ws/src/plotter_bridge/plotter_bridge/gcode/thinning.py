@@ -31,7 +31,8 @@ class Thinning:
         self.tolerance = 0.0
         self.count = 0
         self.groups: List[List[Polyline]] = []
-        self._inked: List[set] = []        # each group's inked cells
+        self._inked: List[Optional[bytearray]] = []   # each group's inked cells of the grid
+        self._grid = (0.0, 0.0, 0, 0)      # the grid's lowest X, Y (mm) and its cells across, up
         self._judged: List[int] = []       # each group's paths before this have been looked at
         self._lo = [math.inf, math.inf]
         self._hi = [-math.inf, -math.inf]
@@ -39,7 +40,7 @@ class Thinning:
     def group(self) -> List[Polyline]:
         """A new list of paths (a pen's, the travel's) under this budget."""
         self.groups.append([])
-        self._inked.append(set())
+        self._inked.append(None)
         self._judged.append(0)
         return self.groups[-1]
 
@@ -72,32 +73,42 @@ class Thinning:
         else:
             line.append(p)
 
-    def _cells(self, line: Polyline) -> Optional[set]:
-        """The cells the path inks (at points no more than a cell apart), None if it has a longer
-        segment than SAMPLES cells."""
-        t = self.tolerance
-        cells = {(math.floor(line[0][0] / t), math.floor(line[0][1] / t))}
-        for (x0, y0), (x1, y1) in zip(line, line[1:]):
-            n = int((abs(x1 - x0) + abs(y1 - y0)) / t) + 1
+    def _cells(self, line: Polyline) -> Optional[List[int]]:
+        """The cells of the grid the path inks (at points no more than a cell apart), None if it
+        has a longer segment than SAMPLES cells or leaves the grid (drawn since it was laid)."""
+        t, (x_lo, y_lo, nx, ny) = self.tolerance, self._grid
+        cells = []
+        for k, ((x0, y0), (x1, y1)) in enumerate(zip(line[:1] + line, line)):
+            n = int((abs(x1 - x0) + abs(y1 - y0)) / t) + 1 if k else 1
             if n > self.SAMPLES:
                 return None
-            for k in range(1, n + 1):
-                cells.add((math.floor((x0 + (x1 - x0) * k / n) / t), math.floor((y0 + (y1 - y0) * k / n) / t)))
+            for j in range(1, n + 1):
+                ix = math.floor((x0 + (x1 - x0) * j / n - x_lo) / t)
+                iy = math.floor((y0 + (y1 - y0) * j / n - y_lo) / t)
+                if not (0 <= ix < nx and 0 <= iy < ny):
+                    return None
+                cells.append(iy * nx + ix)
         return cells
 
     def _thin(self) -> None:
         extent = math.hypot(self._hi[0] - self._lo[0], self._hi[1] - self._lo[1]) or 1.0
         if self.tolerance:
-            self._look(again=False)        # what came since the last time, at the tolerance it has
+            self._look(again=False)        # what came since the last time, on the grid it has
         while self.count > self.budget * 3 // 4:
             self.tolerance = max(2 * self.tolerance, extent / 2000.0)
             self._look(again=True)
 
     def _look(self, again: bool) -> None:
+        if again:
+            # a byte a cell over what is drawn so far: at most 2000 x 2000 for a group
+            t = self.tolerance
+            nx = int((self._hi[0] - self._lo[0]) / t) + 1
+            ny = int((self._hi[1] - self._lo[1]) / t) + 1
+            self._grid = (self._lo[0], self._lo[1], nx, ny)
         for g, group in enumerate(self.groups):
             if again:
-                self._inked[g], self._judged[g] = set(), 0
-            inked, first = self._inked[g], self._judged[g]
+                self._inked[g], self._judged[g] = None, 0
+            first = self._judged[g]
             kept = group[:first]
             for k in range(first, len(group)):
                 path = group[k]
@@ -111,8 +122,15 @@ class Thinning:
                     kept.append(line)          # it may go on: looked at next time
                     continue
                 cells = self._cells(line)
-                if cells is None or not cells <= inked:
-                    inked |= cells or set()
+                if cells is None:
+                    kept.append(line)
+                    continue
+                inked = self._inked[g]
+                if inked is None:
+                    inked = self._inked[g] = bytearray(self._grid[2] * self._grid[3])
+                if not all(inked[c] for c in cells):
+                    for c in cells:
+                        inked[c] = 1
                     kept.append(line)
             group[:] = kept
             self._judged[g] = max(0, len(group) - 1)
