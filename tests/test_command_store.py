@@ -71,6 +71,51 @@ def test_a_journal_writes_a_big_text_in_pieces_that_read_back_whole(tmp_path, mo
     assert list(back.commands) == commands and list(back.lines) == list(range(len(commands)))
 
 
+def test_finding_a_command_and_the_parts_of_a_job_read_as_a_list_does():
+    """CommandStore.find and BoardSession._part_end over a store's text, against the same over a
+    list, from every start, in views too, with pen changes where a plain scan finds them."""
+    import random
+    import re
+    from plotter_bridge.link.board_session import BoardSession, Job
+    rng = random.Random(5)
+    kinds = ["L 1 2 3 4", "M6 0", "M6 12", "M6  3 ", "M62", "XM6 1", "P 1", "M6 x", "D 5"]
+    commands = [rng.choice(kinds) for _ in range(400)]
+    store = CommandStore.from_text("\n".join(commands))
+    pattern = re.compile(r"^M6 +[0-9]+ *$", re.MULTILINE)
+    for k in range(len(commands) + 1):
+        expected = next((i for i in range(k, len(commands)) if pattern.search(commands[i])), None)
+        assert store.find(pattern, k) == expected
+        part_end = BoardSession._part_end
+        assert part_end(Job(source=(store, [])), k) == part_end(Job(source=(commands, [])), k)
+    view = store[37:211]
+    for k in range(len(view) + 1):
+        expected = next((i for i in range(k, len(view)) if pattern.search(view[i])), None)
+        assert view.find(pattern, k) == expected
+    # not ASCII: its line ends found the slow way
+    assert CommandStore.from_text("L 1 2\nP \u00e9\nM6 0\n") == ["L 1 2", "P \u00e9", "M6 0"]
+    assert CommandStore.from_text("L 1 2\nM6 0") == ["L 1 2", "M6 0"] and CommandStore.from_text("") == []
+
+
+def test_a_big_jobs_end_is_summed_beside_it_and_the_same():
+    """start_job's expected end: summed at once up to SUMMED_AT_ONCE commands, on a thread beyond
+    (the job's first line does not wait for a million), the same sum either way."""
+    from plotter_bridge.link.board_session import SUMMED_AT_ONCE, Job, _expect_end, displacement
+    small = ["L 3 -2 10 0", "P 1", "C 4 0 2 0 10 0"] * 10
+    job = Job(source=(CommandStore(small), []))
+    assert _expect_end(job, (100, 50)) is None and job.expected_end == (100 + 70, 50 - 20)
+    big = CommandStore(["L 3 -2 10 0", "P 1", "A -1 5 0 2 10 0"] * (SUMMED_AT_ONCE // 3 + 1))
+    job = Job(source=(big, []))
+    thread = _expect_end(job, (7, 8))
+    assert thread is not None
+    thread.join()
+    dx, dy = displacement(list(big))
+    assert job.expected_end == (7 + dx, 8 + dy) and (dx, dy) == (2 * len(big) // 3, len(big))
+    job = Job(source=(CommandStore(["L 1 1 5 0"] * (SUMMED_AT_ONCE + 1) + ["F 0 400 0 280"]), []))
+    thread = _expect_end(job, (0, 0))
+    thread.join()
+    assert job.expected_end is None, "a follow ends where the line takes the pen"
+
+
 def test_the_bridge_takes_a_goal_by_list_or_by_text_not_both():
     assert goal_commands(SimpleNamespace(commands=COMMANDS, command_text="")) is COMMANDS
     assert goal_commands(SimpleNamespace(commands=[], command_text="P 1\nL 1 0 15 0\n")) == ["P 1", "L 1 0 15 0"]

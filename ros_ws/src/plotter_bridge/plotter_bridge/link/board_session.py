@@ -42,12 +42,14 @@ called from other threads.  Waits happen outside the lock.
 """
 from __future__ import annotations
 
+import re
 import threading
 import time
 from dataclasses import dataclass
 from typing import Callable, List, Optional, Tuple
 
 from .board_link import BoardLink, Command, Port
+from .command_store import CommandStore
 from .protocol import (PEN_CHANGE_STANDIN, RT_ESTOP, RT_HOLD, RT_RESET, RT_RESUME, SEQ_MOD, Err, Status,
                        pen_change_number)
 
@@ -92,6 +94,7 @@ class Job:
     disconnected_at: Optional[float] = None
     result: Optional[JobResult] = None
     expected_end: Optional[tuple] = None  # where the pen must be once every command ran
+    summing: Optional[threading.Thread] = None  # works out expected_end beside a big job
     pen_change: Optional[int] = None    # the job waits at this pen change (M6 k) for continue_job()
     change_held: bool = False           # ... and the board has been seen held for it
     first: int = 0                      # the link's number of command 0
@@ -137,6 +140,27 @@ def displacement(commands: List[str]) -> Optional[tuple]:
         if parts and parts[0] in ("L", "C", "A") and len(parts) >= 3:
             x, y = x + int(parts[1]), y + int(parts[2])
     return x, y
+
+
+SUMMED_AT_ONCE = 20000    # commands whose moves start_job sums itself; a bigger job's are summed beside it
+# A pen change as pen_change_number reads it, in a CommandStore's text (a bridge's job's: ASCII,
+# spaces its only blanks).
+_PEN_CHANGE_LINE = re.compile(r"^M6 +[0-9]+ *$", re.MULTILINE)
+
+
+def _expect_end(job: Job, at: Tuple[int, int]) -> Optional[threading.Thread]:
+    """Set job.expected_end from `at` and the job's moves: at once for a small job; for a big one on a
+    thread, returned, so that its first line does not wait a second for a million commands' sum."""
+    def work() -> None:
+        moves = displacement(job.source[0])
+        if moves is not None:
+            job.expected_end = (at[0] + moves[0], at[1] + moves[1])
+    if len(job.source[0]) <= SUMMED_AT_ONCE:
+        work()
+        return None
+    thread = threading.Thread(target=work, name="job end", daemon=True)
+    thread.start()
+    return thread
 
 
 def started_count(first: int, count: int, last_started: int) -> int:
@@ -446,9 +470,8 @@ class BoardSession:
             job = Job(source=(commands, lines), first=self.link.next_host_seq)
             job.part_end = self._part_end(job, 0)
             self._feed_job(job)
-            moves = displacement(commands)
-            if moves is not None and st.state == "Idle" and st.queue_free == QUEUE_SIZE:
-                job.expected_end = (st.x + moves[0], st.y + moves[1])
+            if st.state == "Idle" and st.queue_free == QUEUE_SIZE:
+                job.summing = _expect_end(job, (st.x, st.y))
             self.job = job
             return job
 
@@ -456,6 +479,9 @@ class BoardSession:
     def _part_end(job: Job, k: int) -> int:
         """The end of the part that begins at command k: just after its next pen change."""
         texts = job.source[0]
+        if isinstance(texts, CommandStore):
+            found = texts.find(_PEN_CHANGE_LINE, k)
+            return len(texts) if found is None else found + 1
         while k < len(texts):
             k += 1
             if texts[k - 1].startswith("M6") and pen_change_number(texts[k - 1]) is not None:
@@ -552,6 +578,8 @@ class BoardSession:
                              f"the next pen (resume, or the board's pause / resume key, goes on)")
                     self._changed()
                 return
+            if job.summing is not None:
+                job.summing.join()
             if job.expected_end is not None and (st.x, st.y) != job.expected_end:
                 # Every line was acknowledged, yet the pen is elsewhere: a line damaged on
                 # the way passed the checksum and ran as something else.

@@ -9,8 +9,10 @@ the commands; a slice is a view of the same text.
 """
 from __future__ import annotations
 
+import bisect
+import re
 from array import array
-from typing import Iterable, Iterator, Sequence, Union, overload
+from typing import Iterable, Iterator, Optional, Sequence, Union, overload
 
 import numpy as np
 
@@ -47,12 +49,28 @@ class CommandStore(Sequence[str]):
         if text and not text.endswith("\n"):
             text += "\n"
         ends = array("I")
-        pos = text.find("\n")
-        while pos >= 0:
-            ends.append(pos + 1)
-            pos = text.find("\n", pos + 1)
+        if text.isascii():          # a character a byte: the line ends at once (a million in 30 ms)
+            found = np.flatnonzero(np.frombuffer(text.encode("ascii"), dtype=np.uint8) == 10) + 1
+            ends.frombytes(found.astype(np.uint32).tobytes())
+        else:
+            pos = text.find("\n")
+            while pos >= 0:
+                ends.append(pos + 1)
+                pos = text.find("\n", pos + 1)
         store._text, store._ends, store._count = text, ends, len(ends)
         return store
+
+    def find(self, pattern: "re.Pattern[str]", k: int = 0) -> Optional[int]:
+        """The index of the first command from k on that `pattern` (MULTILINE, ^ and $ a command's
+        ends) matches in, None if none does."""
+        if k >= self._count:
+            return None
+        end = self._ends[self._first + self._count - 1]
+        found = pattern.search(self._text, self._start(k), end)
+        if found is None:
+            return None
+        # the command whose end is the first after the match's start
+        return bisect.bisect_right(self._ends, found.start(), self._first + k, self._first + self._count) - self._first
 
     @property
     def text(self) -> str:
