@@ -96,6 +96,15 @@ def test_finding_a_command_and_the_parts_of_a_job_read_as_a_list_does():
     assert CommandStore.from_text("L 1 2\nM6 0") == ["L 1 2", "M6 0"] and CommandStore.from_text("") == []
 
 
+def test_a_text_is_cut_into_commands_the_same_across_its_pieces(monkeypatch):
+    """from_text finds an ASCII text's line ends a piece at a time: pieces of 7 here."""
+    from plotter_bridge.link import command_store
+    monkeypatch.setattr(command_store, "_CHUNK", 7)
+    for text in ["a\n", "L 1 2\nM6 0\nP 1", "abcdefg\nhijklmn\n" * 5, "x" * 20 + "\n" + "y" * 3, "\n".join(COMMANDS)]:
+        lines = text.split("\n")
+        assert list(CommandStore.from_text(text)) == (lines[:-1] if text.endswith("\n") else lines), text
+
+
 def test_a_big_jobs_end_is_summed_beside_it_and_the_same():
     """start_job's expected end: summed at once up to SUMMED_AT_ONCE commands, on a thread beyond
     (the job's first line does not wait for a million), the same sum either way."""
