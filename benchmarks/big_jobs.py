@@ -32,7 +32,7 @@ import threading
 import time
 from dataclasses import dataclass
 from pathlib import Path
-from typing import List, Optional
+from typing import Callable, List, Optional
 
 ROOT = Path(__file__).resolve().parent.parent
 sys.path[:0] = [str(ROOT / "tests"), str(ROOT / "benchmarks")]
@@ -118,23 +118,24 @@ def main() -> int:
                 row += ["-", "-", "-"]
             print("| " + " | ".join(row) + " |", flush=True)
         if not args.no_pictures:
-            print("\n| lines | check --png s | peak MB | within mm | svg MB | svg --preview s | peak MB "
-                  "| within mm | page check s | peak MB | within mm | page JSON MB |")
-            print("|---|---|---|---|---|---|---|---|---|---|---|---|")
-            for size in args.sizes:
-                path = Path(tmp) / f"walk{size}.ngc"
-                print("| " + " | ".join([f"{size}", *pictures_row(path, plotter)]) + " |", flush=True)
+            table(["check --png s", "peak MB", "within mm", "svg MB", "svg --preview s", "peak MB", "within mm",
+                   "page check s", "peak MB", "within mm", "page JSON MB"], args.sizes,
+                  lambda size: pictures_row(Path(tmp) / f"walk{size}.ngc", plotter))
         if not args.no_graph:
-            print("\n| lines | first step s | of it after the check s | peak MB: mock_board | serial_bridge "
-                  "| gcode_streamer | plotter stream | run_program goal MB | stream_commands goal MB |")
-            print("|---|---|---|---|---|---|---|---|---|")
-            for size in args.sizes:
-                path = Path(tmp) / f"walk{size}.ngc"
-                row = graph_row(path, Path(tmp) / f"graph{size}", plotter)
-                print("| " + " | ".join([f"{size}", *row]) + " |", flush=True)
+            table(["first step s", "of it after the check s", "peak MB: mock_board", "serial_bridge", "gcode_streamer",
+                   "plotter stream", "run_program goal MB", "stream_commands goal MB"], args.sizes,
+                  lambda size: graph_row(Path(tmp) / f"walk{size}.ngc", Path(tmp) / f"graph{size}", plotter))
         for path in [*Path(tmp).glob("walk*.ngc"), *Path(tmp).glob("walk*.svg")]:
             path.unlink()
     return 0
+
+
+def table(columns: List[str], sizes: List[int], row: Callable[[int], List[str]]) -> None:
+    """A Markdown table, a row for each size as it is measured."""
+    print("\n| lines | " + " | ".join(columns) + " |")
+    print("|---" * (len(columns) + 1) + "|")
+    for size in sizes:
+        print("| " + " | ".join([f"{size}", *row(size)]) + " |", flush=True)
 
 
 def _within(said: str) -> str:

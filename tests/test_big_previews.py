@@ -23,9 +23,9 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent / "benchmarks"))
 import big_drawing  # noqa: E402
 
-from plotter_bridge.motion.compiler import StreamerConfig, compile_job  # noqa: E402
+from plotter_bridge.motion.compiler import StreamerConfig  # noqa: E402
 from plotter_bridge.gcode.thinning import Thinning  # noqa: E402
-from plotter_bridge.motion.preview import preview_items, preview_program  # noqa: E402
+from plotter_bridge.motion.preview import preview_program  # noqa: E402
 
 Point = Tuple[float, float]
 
@@ -126,7 +126,7 @@ def walk() -> str:
 
 def test_a_big_preview_has_the_exact_lengths_and_time_and_fewer_points(walk):
     config = StreamerConfig(area=None)
-    exact = preview_items(*compile_job(walk, config), budget=10 ** 9)
+    exact = preview_program(walk, config, budget=10 ** 9)
     thin = preview_program(walk, config, budget=5000)
     assert exact.tolerance_mm == 0.0 and thin.tolerance_mm > 0
     assert thin.drawn_mm == pytest.approx(exact.drawn_mm, rel=1e-9)

@@ -15,16 +15,15 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field
-from typing import List, Sequence, Tuple, Union
+from typing import List, Tuple, Union
 
 from plotter_bridge.gcode.pens import change_label, label_colour
 from plotter_bridge.gcode.polylines import Polyline, arc_points
 from plotter_bridge.gcode.thinning import Thinning
 from plotter_bridge.gcode.types import Item, Move, ToolChange
 
-from .commands import BoardCommand
 from .compiler import StreamerConfig, compile_stream
-from .timing import command_seconds, iter_command_seconds
+from .timing import iter_command_seconds
 
 MAX_PREVIEW_POINTS = 100000    # points of a preview's paths at most, pen-down and travel together
 PALETTE = ("#1f1f1f", "#d62728", "#1f77b4", "#2ca02c", "#9467bd", "#ff7f0e", "#8c564b", "#e377c2")
@@ -143,17 +142,6 @@ class PreviewBuilder:
         layers = [layer for layer in self.layers if layer.lines] or [PenLayer("pen 1", PALETTE[0])]
         return Preview(layers, self.travel, self.travel_mm, self.seconds, self.commands,
                        self.thinning.tolerance)
-
-
-def preview_items(items: Sequence[Item], commands: Sequence[BoardCommand],
-                  budget: int = MAX_PREVIEW_POINTS) -> Preview:
-    """The preview of a compiled job (compile_job's items and commands)."""
-    builder = PreviewBuilder(budget)
-    for item in items:
-        builder.add_item(item)
-    for seconds in command_seconds(commands):
-        builder.add_seconds(seconds)
-    return builder.preview()
 
 
 def preview_program(text: Union[str, bytes], config: StreamerConfig = StreamerConfig(),
